@@ -1,0 +1,197 @@
+//! Seed 002: the Dahl model, friction as a function of displacement, with a
+//! viscous term.
+//!
+//! # Conventions
+//! SI units. `F` is the Dahl friction state, signed like the motion that built
+//! it up; the device feels `-(F + b v)`. With `s = sgn(x')`:
+//!
+//! ```text
+//! dF/dx = sigma |1 - F s / Fc|^i sgn(1 - F s / Fc)
+//! ```
+//!
+//! `Fc` is `fc_pos_n` for motion towards +x and `fc_neg_n` towards -x. Under
+//! steady motion `F` tends to `s Fc` over a presliding distance of about
+//! `Fc / sigma`; on reversal it sweeps to the other limit (hysteresis).
+//!
+//! # Numerics
+//! The seed warns that `sigma` needs care to stay numerically sound: an
+//! Euler step overshoots once `sigma |dx| > Fc`. Here each step applies the
+//! exact solution of the ODE over the step's displacement `dx` (the finger
+//! moves in a straight line within a step): with `e = 1 - F s / Fc` and
+//! `u = sigma |dx| / Fc`, `e' = e exp(-u)` for `i = 1`, and
+//! `|e'|^(1-i) = |e|^(1-i) - (1-i) u` otherwise (`e' = 0` once that reaches
+//! zero for `i < 1`). So `|F|` never exceeds `max(|F|, Fc)` and the model is
+//! sound for every `sigma > 0`; the tests cover sigma from 1e2 to 1e8 N/m.
+//! What sigma changes is physical: presliding stiffness, which the device
+//! must be able to render stably (a device-side limit, not a numerical one).
+//!
+//! The CSV `state` is `slip` once `F s / Fc` reaches `slip_fraction` (a
+//! reporting convention: the Dahl model itself has no discrete states).
+
+use serde::{Deserialize, Serialize};
+
+use super::{ForceLimit, Input, Output, ParamError, Phase, collect, non_negative, positive, sign};
+
+/// Parameters of the Dahl model.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DahlParams {
+    /// Rest stiffness sigma, N/m. Default 2e4 (0.1 mm presliding at 2 N).
+    pub sigma_n_m: f64,
+    /// Coulomb level for motion towards +x, N. Default 2.0.
+    pub fc_pos_n: f64,
+    /// Coulomb level for motion towards -x, N. Default 2.0.
+    pub fc_neg_n: f64,
+    /// Shape exponent i (dimensionless, > 0). Default 1.
+    pub exponent: f64,
+    /// Viscous term b, N s/m. Default 0.5.
+    pub viscous_n_s_m: f64,
+    /// Fraction of `Fc` from which the state is reported as `slip`. Default 0.9.
+    pub slip_fraction: f64,
+}
+
+impl Default for DahlParams {
+    fn default() -> Self {
+        DahlParams {
+            sigma_n_m: 2e4,
+            fc_pos_n: 2.0,
+            fc_neg_n: 2.0,
+            exponent: 1.0,
+            viscous_n_s_m: 0.5,
+            slip_fraction: 0.9,
+        }
+    }
+}
+
+impl DahlParams {
+    /// Every invalid field.
+    #[must_use]
+    pub fn validate(&self) -> Vec<ParamError> {
+        let mut errors = collect([
+            positive("sigma_n_m", self.sigma_n_m),
+            positive("fc_pos_n", self.fc_pos_n),
+            positive("fc_neg_n", self.fc_neg_n),
+            positive("exponent", self.exponent),
+            non_negative("viscous_n_s_m", self.viscous_n_s_m),
+            positive("slip_fraction", self.slip_fraction),
+        ]);
+        if self.slip_fraction > 1.0 {
+            errors.push(ParamError::new(
+                "slip_fraction",
+                format!("must be at most 1, got {}", self.slip_fraction),
+            ));
+        }
+        errors
+    }
+}
+
+/// Running state of the Dahl model.
+#[derive(Debug, Clone)]
+pub struct Dahl {
+    p: DahlParams,
+    limit: ForceLimit,
+    /// Dahl friction state, N.
+    f: f64,
+    /// Position at the last step, m.
+    x_prev: f64,
+    phase: Phase,
+}
+
+impl Dahl {
+    /// A relaxed model (zero friction) at position `x_m`.
+    #[must_use]
+    pub fn new(p: DahlParams, limit: ForceLimit, x_m: f64) -> Self {
+        Dahl {
+            p,
+            limit,
+            f: 0.0,
+            x_prev: x_m,
+            phase: Phase::Stick,
+        }
+    }
+
+    /// Current reported phase.
+    #[must_use]
+    pub fn phase(&self) -> Phase {
+        self.phase
+    }
+
+    /// The Dahl friction state F, N (without the viscous term).
+    #[must_use]
+    pub fn friction_n(&self) -> f64 {
+        self.f
+    }
+
+    /// Advances to the device state `input` (`dt` does not enter: the model
+    /// is driven by displacement).
+    pub fn step(&mut self, _dt: f64, input: Input) -> Output {
+        let dx = input.x_m - self.x_prev;
+        self.x_prev = input.x_m;
+        let mut slip_onset = false;
+        if dx != 0.0 {
+            let s = sign(dx);
+            let fc = if s > 0.0 {
+                self.p.fc_pos_n
+            } else {
+                self.p.fc_neg_n
+            };
+            let e = 1.0 - self.f * s / fc;
+            let u = self.p.sigma_n_m * dx.abs() / fc;
+            let e_new = exact_decay(e, u, self.p.exponent);
+            self.f = s * fc * (1.0 - e_new);
+            let phase = if 1.0 - e_new >= self.p.slip_fraction {
+                Phase::Slip
+            } else {
+                Phase::Stick
+            };
+            slip_onset = phase == Phase::Slip && self.phase == Phase::Stick;
+            self.phase = phase;
+        }
+        Output {
+            force_n: self
+                .limit
+                .clamp(-(self.f + self.p.viscous_n_s_m * input.v_m_s)),
+            vibration: 0.0,
+            phase: self.phase,
+            slip_onset,
+        }
+    }
+}
+
+/// The solution at `u` of `de/du = -|e|^i sgn(e)` from `e` at `u = 0`.
+fn exact_decay(e: f64, u: f64, i: f64) -> f64 {
+    if e == 0.0 {
+        return 0.0;
+    }
+    if (i - 1.0).abs() < 1e-12 {
+        return e * (-u).exp();
+    }
+    let q = 1.0 - i;
+    let r = e.abs().powf(q) - q * u;
+    if r <= 0.0 {
+        // Only for i < 1: reaches zero in finite displacement and stays.
+        return 0.0;
+    }
+    sign(e) * r.powf(1.0 / q)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::exact_decay;
+
+    #[test]
+    fn exact_decay_matches_fine_euler_for_several_exponents() {
+        for &i in &[0.5, 1.0, 1.5, 2.0] {
+            for &e0 in &[1.0, 2.0, 0.3, -0.5] {
+                let u = 0.7;
+                let mut e: f64 = e0;
+                let n = 200_000;
+                for _ in 0..n {
+                    e -= e.abs().powf(i) * e.signum() * (u / f64::from(n));
+                }
+                let exact = exact_decay(e0, u, i);
+                assert!((exact - e).abs() < 1e-4, "i={i} e0={e0}: {exact} vs {e}");
+            }
+        }
+    }
+}

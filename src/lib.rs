@@ -1,0 +1,12 @@
+//! frictionlab: renders friction on a haptic device, runs friction-perception
+//! experiments, and analyses them.
+//!
+//! See `ARCHITECTURE.md` for the map. The friction core ([`friction`]) and the
+//! scenarios ([`scenario`]) read no clock and do no I/O; the command line
+//! ([`cli`]) is a thin shell over them.
+
+pub mod cli;
+pub mod friction;
+pub mod render;
+pub mod scenario;
+pub mod settings;

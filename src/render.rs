@@ -1,0 +1,158 @@
+//! Output of `frictionlab render`: the time-series CSV and its SVG figure.
+//! Files are written whole or not at all (written beside the target, then
+//! renamed over it).
+
+use std::fmt::Write as _;
+use std::io::{self, Write};
+use std::path::Path;
+
+use plotters::prelude::*;
+
+use crate::scenario::Sample;
+
+/// The CSV columns, in order; `vibration` only for tactile models.
+#[must_use]
+pub fn columns(vibration: bool) -> Vec<&'static str> {
+    let mut c = vec!["t_s", "x_m", "v_m_s", "force_n", "state", "slip_onset"];
+    if vibration {
+        c.push("vibration");
+    }
+    c
+}
+
+/// The time series as CSV text (header row, comma separated, shortest
+/// round-trip number formatting, so equal runs give equal bytes).
+#[must_use]
+pub fn csv(samples: &[Sample], vibration: bool) -> String {
+    let mut out = columns(vibration).join(",");
+    out.push('\n');
+    for s in samples {
+        let _ = write!(
+            out,
+            "{},{},{},{},{},{}",
+            s.t_s,
+            s.x_m,
+            s.v_m_s,
+            s.force_n,
+            s.phase.as_str(),
+            u8::from(s.slip_onset)
+        );
+        if vibration {
+            let _ = write!(out, ",{}", s.vibration);
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// Writes `contents` to `path` atomically: a temporary file in the same
+/// folder, flushed to disk, then renamed over `path`. Creates missing parent
+/// folders.
+///
+/// # Errors
+/// Any I/O error; `path` is then untouched.
+pub fn write_atomically(path: &Path, contents: &[u8]) -> io::Result<()> {
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    std::fs::create_dir_all(parent)?;
+    let name = path
+        .file_name()
+        .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "not a file name"))?;
+    let tmp = parent.join(format!(
+        ".{}.{}.partial",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(contents)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// An SVG figure over time of the force, the vibration (tactile models) and
+/// the hand velocity, stick-to-slip transitions marked in red.
+///
+/// # Errors
+/// A drawing error, as text.
+pub fn plot_svg(samples: &[Sample], title: &str, vibration: bool) -> Result<String, String> {
+    let mut svg = String::new();
+    let height = if vibration { 900 } else { 640 };
+    {
+        let root = SVGBackend::with_string(&mut svg, (960, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        let root = root
+            .titled(title, ("sans-serif", 20))
+            .map_err(|e| e.to_string())?;
+        let panels = root.split_evenly((if vibration { 3 } else { 2 }, 1));
+        let t0 = samples.first().map_or(0.0, |s| s.t_s);
+        let t1 = samples.last().map_or(1.0, |s| s.t_s).max(t0 + 1e-9);
+        draw_panel(&panels[0], samples, t0..t1, "force on hand (N)", |s| {
+            s.force_n
+        })?;
+        if vibration {
+            draw_panel(&panels[1], samples, t0..t1, "vibration drive", |s| {
+                s.vibration
+            })?;
+        }
+        let last = &panels[panels.len() - 1];
+        draw_panel(last, samples, t0..t1, "hand velocity (m/s)", |s| s.v_m_s)?;
+        panels[0].present().map_err(|e| e.to_string())?;
+    }
+    Ok(svg)
+}
+
+fn draw_panel(
+    area: &DrawingArea<SVGBackend<'_>, plotters::coord::Shift>,
+    samples: &[Sample],
+    t: std::ops::Range<f64>,
+    label: &str,
+    value: impl Fn(&Sample) -> f64,
+) -> Result<(), String> {
+    let (lo, hi) = samples
+        .iter()
+        .map(&value)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    let (lo, hi) = if lo.is_finite() && hi > lo {
+        let pad = 0.05 * (hi - lo);
+        (lo - pad, hi + pad)
+    } else {
+        (-1.0, 1.0)
+    };
+    let mut chart = ChartBuilder::on(area)
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(t, lo..hi)
+        .map_err(|e| e.to_string())?;
+    chart
+        .configure_mesh()
+        .x_desc("t (s)")
+        .y_desc(label)
+        .draw()
+        .map_err(|e| e.to_string())?;
+    chart
+        .draw_series(LineSeries::new(
+            samples.iter().map(|s| (s.t_s, value(s))),
+            &BLUE,
+        ))
+        .map_err(|e| e.to_string())?;
+    chart
+        .draw_series(
+            samples
+                .iter()
+                .filter(|s| s.slip_onset)
+                .map(|s| Circle::new((s.t_s, value(s)), 3, RED.filled())),
+        )
+        .map_err(|e| e.to_string())?;
+    Ok(())
+}

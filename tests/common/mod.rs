@@ -1,0 +1,76 @@
+//! Helpers shared by the integration tests.
+
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    reason = "a failed unwrap is a failed test"
+)]
+#![allow(dead_code, reason = "each test binary uses a different subset")]
+
+use frictionlab::friction::{ForceLimit, Friction, Input, ModelParams, Output};
+use frictionlab::scenario::{self, RunSettings, Sample, ScenarioParams};
+use frictionlab::settings;
+
+/// Default parameters of `model` with `overrides` applied.
+pub fn model(name: &str, overrides: &[(&str, &str)]) -> ModelParams {
+    let base = ModelParams::default_for(name).expect("known model");
+    settings::apply(&base, "model", name, overrides).expect("valid overrides")
+}
+
+/// Runs `model` through the default `scenario` at the model's loop rate.
+pub fn render(model: &ModelParams, scenario: &str) -> Vec<Sample> {
+    let scenario = ScenarioParams::default_for(scenario).expect("known scenario");
+    let settings = RunSettings {
+        rate_hz: model.loop_rate_hz(),
+        limit: ForceLimit::default(),
+    };
+    scenario::run(model, &scenario, settings).expect("scenario runs")
+}
+
+/// Times of the stick-to-slip transitions.
+pub fn onsets(samples: &[Sample]) -> Vec<f64> {
+    samples
+        .iter()
+        .filter(|s| s.slip_onset)
+        .map(|s| s.t_s)
+        .collect()
+}
+
+/// Peak-to-peak of `value` over samples with `t0 <= t_s <= t1`.
+pub fn peak_to_peak(samples: &[Sample], t0: f64, t1: f64, value: impl Fn(&Sample) -> f64) -> f64 {
+    let (lo, hi) = samples
+        .iter()
+        .filter(|s| s.t_s >= t0 && s.t_s <= t1)
+        .map(value)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    hi - lo
+}
+
+/// Steps a fresh model at `dt` through `inputs`.
+pub fn drive(params: &ModelParams, dt: f64, inputs: &[Input]) -> Vec<Output> {
+    let mut f = Friction::new(
+        params,
+        ForceLimit::default(),
+        inputs.first().map_or(0.0, |i| i.x_m),
+    )
+    .expect("valid params");
+    inputs.iter().map(|&i| f.step(dt, i)).collect()
+}
+
+/// A smooth back-and-forth motion with rests: `n` samples at `dt`, amplitude
+/// `a` metres.
+pub fn wiggle(n: usize, dt: f64, a: f64) -> Vec<Input> {
+    (0..n)
+        .map(|i| {
+            let t = i as f64 * dt;
+            let w1 = std::f64::consts::TAU * 1.3;
+            let w2 = std::f64::consts::TAU * 3.1;
+            Input {
+                x_m: a * ((w1 * t).sin() + 0.3 * (w2 * t).sin()),
+                v_m_s: a * (w1 * (w1 * t).cos() + 0.3 * w2 * (w2 * t).cos()),
+            }
+        })
+        .collect()
+}
