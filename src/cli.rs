@@ -1,13 +1,16 @@
 //! The command line: parses arguments, calls the library, and is the one place
 //! that turns errors into `error: <where>: <what>` lines and exit codes.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
 use crate::friction::{ForceLimit, ModelParams, ParamError};
+use crate::protocol::{Protocol, load};
 use crate::render;
+use crate::results::{self, ResultsError};
+use crate::runner;
 use crate::scenario::{self, RunSettings, ScenarioError, ScenarioParams};
 use crate::settings::{self, SetError};
 
@@ -25,12 +28,78 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Checks protocol files; exit 0 if all are valid.
+    Validate {
+        /// Protocol files.
+        #[arg(required = true)]
+        protocols: Vec<PathBuf>,
+    },
+    /// Runs one session (headless with `--device sim --responder sim`).
+    Run(RunArgs),
+    /// Runs N whole sessions with simulated participants on the simulated
+    /// device.
+    Simulate(SimulateArgs),
+    /// Prints a JSON Schema: of protocol files, or of session log lines.
+    Schema {
+        /// `protocol` or `log`.
+        #[arg(value_parser = ["protocol", "log"])]
+        which: String,
+    },
     /// Runs one friction model through a scripted scenario and writes the time
     /// series (CSV) and optionally its figure (SVG).
     Render(RenderArgs),
     /// Lists the friction models and scenarios with their default parameters
     /// (the names `render --set` accepts), as JSON.
     Models,
+}
+
+#[derive(Debug, clap::Args)]
+struct RunArgs {
+    /// The protocol file.
+    protocol: PathBuf,
+    /// Participant id: letters, digits, '-' and '_'.
+    #[arg(long)]
+    participant: String,
+    /// Results folder.
+    #[arg(long)]
+    out: PathBuf,
+    /// `sim` (the simulated apparatus) or a serial port path.
+    #[arg(long, default_value = "sim")]
+    device: String,
+    /// Who answers: `gui` (a person) or `sim` (a simulated participant).
+    #[arg(long, default_value = "gui")]
+    responder: String,
+    /// Plan seed (default: drawn at random and logged).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Continue the participant's last unfinished session.
+    #[arg(long)]
+    resume: bool,
+    /// Simulated time runs X times faster than real time (default 1).
+    #[arg(long, default_value_t = 1.0)]
+    pace: f64,
+    /// Counterbalancing index (default: participants already in the folder).
+    #[arg(long)]
+    participant_index: Option<u32>,
+}
+
+#[derive(Debug, clap::Args)]
+struct SimulateArgs {
+    /// The protocol file.
+    protocol: PathBuf,
+    /// Number of simulated participants (ids sim-001, sim-002, ...).
+    #[arg(long)]
+    participants: u32,
+    /// Study seed: participant i's plan seed and traits derive from it.
+    #[arg(long)]
+    seed: u64,
+    /// Results folder.
+    #[arg(long)]
+    out: PathBuf,
+    /// Simulated time runs X times faster than real time (default: as fast
+    /// as possible).
+    #[arg(long)]
+    pace: Option<f64>,
 }
 
 #[derive(Debug, clap::Args)]
@@ -93,7 +162,18 @@ pub fn main() -> ExitCode {
         }
     };
     let result = match cli.command {
-        Command::Render(args) => render_command(&args),
+        Command::Validate { protocols } => validate_command(&protocols),
+        Command::Run(args) => run_command(&args),
+        Command::Simulate(args) => simulate_command(&args),
+        Command::Schema { which } => {
+            if which == "log" {
+                print!("{}", crate::results::log_json_schema());
+            } else {
+                print!("{}", crate::protocol::json_schema());
+            }
+            Ok(())
+        }
+        Command::Render(args) => render_command(&args).map_err(Failure::from),
         Command::Models => {
             println!("{}", models_json());
             Ok(())
@@ -101,13 +181,243 @@ pub fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        Err(errors) => {
-            for e in errors {
+        Err(failure) => {
+            for e in failure.errors {
                 eprintln!("{e}");
             }
-            ExitCode::from(EXIT_BAD_INPUT)
+            ExitCode::from(failure.code)
         }
     }
+}
+
+/// Exit code for an unexpected failure (an I/O error writing results).
+pub const EXIT_FAILURE: u8 = 1;
+
+/// Errors to print and the exit code.
+struct Failure {
+    code: u8,
+    errors: Vec<UserError>,
+}
+
+impl From<Vec<UserError>> for Failure {
+    fn from(errors: Vec<UserError>) -> Self {
+        Failure {
+            code: EXIT_BAD_INPUT,
+            errors,
+        }
+    }
+}
+
+impl From<ResultsError> for Failure {
+    fn from(e: ResultsError) -> Self {
+        match e {
+            ResultsError::Input { place, message } => vec![UserError::new(place, message)].into(),
+            ResultsError::Log {
+                path,
+                line,
+                column,
+                message,
+            } => vec![UserError::new(path, format!("{line}:{column}: {message}"))].into(),
+            ResultsError::Io { path, source } => Failure {
+                code: EXIT_FAILURE,
+                errors: vec![UserError::new(path, source.to_string())],
+            },
+        }
+    }
+}
+
+/// Reads and checks a protocol file.
+fn load_protocol(path: &Path) -> Result<(Protocol, Vec<u8>), Vec<UserError>> {
+    let file = path.display().to_string();
+    let bytes = std::fs::read(path)
+        .map_err(|e| vec![UserError::new(&file, format!("cannot read: {e}"))])?;
+    let text = String::from_utf8(bytes.clone())
+        .map_err(|e| vec![UserError::new(&file, format!("not UTF-8 text: {e}"))])?;
+    let protocol = load::parse(&text).map_err(|errors| {
+        errors
+            .into_iter()
+            .map(|e| UserError::new(format!("{file}: {}", e.path), e.message))
+            .collect::<Vec<_>>()
+    })?;
+    Ok((protocol, bytes))
+}
+
+fn validate_command(paths: &[PathBuf]) -> Result<(), Failure> {
+    let mut errors = Vec::new();
+    for path in paths {
+        match load_protocol(path) {
+            Ok((p, _)) => {
+                let plan = crate::protocol::plan::resolve(&p, 0, 0);
+                println!(
+                    "ok: {}: {} '{}', {} trials per session",
+                    path.display(),
+                    p.design.kind().as_str(),
+                    p.id,
+                    plan.trials.len()
+                );
+            }
+            Err(e) => errors.extend(e),
+        }
+    }
+    if errors.is_empty() {
+        Ok(())
+    } else {
+        Err(errors.into())
+    }
+}
+
+fn check_pace(pace: f64) -> Result<(), Vec<UserError>> {
+    if pace.is_finite() && pace > 0.0 {
+        Ok(())
+    } else {
+        Err(vec![UserError::new(
+            "--pace",
+            format!("must be a number greater than 0, got {pace}"),
+        )])
+    }
+}
+
+fn run_command(args: &RunArgs) -> Result<(), Failure> {
+    let mut errors = Vec::new();
+    if args.device != "sim" {
+        errors.push(UserError::new(
+            "--device",
+            format!(
+                "'{}': only the simulated device ('sim') is available in this version",
+                args.device
+            ),
+        ));
+    }
+    if args.responder != "sim" {
+        errors.push(UserError::new(
+            "--responder",
+            format!(
+                "'{}': only the simulated participant ('sim') is available in this version; the experimenter window comes later",
+                args.responder
+            ),
+        ));
+    }
+    if let Err(m) = results::check_participant(&args.participant) {
+        errors.push(UserError::new("--participant", m));
+    }
+    if let Err(e) = check_pace(args.pace) {
+        errors.extend(e);
+    }
+    let loaded = load_protocol(&args.protocol);
+    let (protocol, bytes) = match loaded {
+        Ok(ok) if errors.is_empty() => ok,
+        Ok(_) => return Err(errors.into()),
+        Err(e) => {
+            errors.extend(e);
+            return Err(errors.into());
+        }
+    };
+    let seed = args.seed.unwrap_or_else(rand::random::<u64>);
+    let dir = results::ResultsDir::new(&args.out);
+    let req = runner::SessionRequest {
+        protocol: &protocol,
+        protocol_bytes: &bytes,
+        participant: &args.participant,
+        participant_index: args.participant_index,
+        seed,
+        resume: args.resume,
+        pace: Some(args.pace),
+    };
+    let outcome = runner::run_simulated(&dir, &req, &mut |_, _| {})?;
+    if outcome.torn_bytes > 0 {
+        eprintln!(
+            "note: {}: a torn last line ({} bytes) was ignored and cut before resuming",
+            outcome.log.display(),
+            outcome.torn_bytes
+        );
+    }
+    println!(
+        "session {} of '{}': {} trials completed, {} aborted{} -> {}",
+        outcome.session,
+        args.participant,
+        outcome.completed,
+        outcome.aborted,
+        outcome
+            .resumed_at
+            .map(|t| format!(" (resumed at trial {t})"))
+            .unwrap_or_default(),
+        outcome.csv.display()
+    );
+    Ok(())
+}
+
+/// Plan seed of simulated participant `i` of a study seeded with `seed`
+/// (`SplitMix64` of the pair, so seeds of neighbouring participants differ).
+#[must_use]
+pub fn participant_seed(seed: u64, i: u32) -> u64 {
+    let mut z = seed.wrapping_add(
+        u64::from(i)
+            .wrapping_add(1)
+            .wrapping_mul(0x9e37_79b9_7f4a_7c15),
+    );
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
+    let mut errors = Vec::new();
+    if args.participants == 0 {
+        errors.push(UserError::new("--participants", "must be at least 1"));
+    }
+    if let Some(p) = args.pace
+        && let Err(e) = check_pace(p)
+    {
+        errors.extend(e);
+    }
+    let (protocol, bytes) = match load_protocol(&args.protocol) {
+        Ok(ok) if errors.is_empty() => ok,
+        Ok(_) => return Err(errors.into()),
+        Err(e) => {
+            errors.extend(e);
+            return Err(errors.into());
+        }
+    };
+    let dir = results::ResultsDir::new(&args.out);
+    let planned = crate::protocol::plan::resolve(&protocol, 0, 0).trials.len() as u64;
+    let bar = indicatif::ProgressBar::new(planned * u64::from(args.participants));
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{bar:40} {pos}/{len} trials, {msg} [{elapsed_precise}]",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let wall = std::time::Instant::now();
+    let (mut simulated, mut trials) = (0.0, 0);
+    for i in 0..args.participants {
+        let id = format!("sim-{:03}", i + 1);
+        bar.set_message(id.clone());
+        let req = runner::SessionRequest {
+            protocol: &protocol,
+            protocol_bytes: &bytes,
+            participant: &id,
+            participant_index: Some(i),
+            seed: participant_seed(args.seed, i),
+            resume: false,
+            pace: args.pace,
+        };
+        let before = bar.position();
+        let outcome = runner::run_simulated(&dir, &req, &mut |done, _| {
+            bar.set_position(before + done as u64);
+        })?;
+        simulated += outcome.simulated_s;
+        trials += outcome.completed + outcome.aborted;
+    }
+    bar.finish_and_clear();
+    let elapsed = wall.elapsed().as_secs_f64();
+    println!(
+        "simulated {} sessions of '{}': {trials} trials, {simulated:.1} s of session time in {elapsed:.2} s ({:.0}x real time) -> {}",
+        args.participants,
+        protocol.id,
+        simulated / elapsed.max(1e-9),
+        dir.root().display()
+    );
+    Ok(())
 }
 
 /// Every model's and scenario's default parameters, pretty JSON.

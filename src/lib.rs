@@ -6,7 +6,12 @@
 //! ([`cli`]) is a thin shell over them.
 
 pub mod cli;
+pub mod device;
 pub mod friction;
+pub mod participant;
+pub mod protocol;
 pub mod render;
+pub mod results;
+pub mod runner;
 pub mod scenario;
 pub mod settings;

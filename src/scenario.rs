@@ -25,6 +25,7 @@
 //!   dwells, kinematic like the seed's hand-moved mouse. Defaults 12 mm,
 //!   0.6 s per reach, 0.3 s dwells, 6 reaches.
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::friction::{
@@ -33,7 +34,7 @@ use crate::friction::{
 };
 
 /// Seed 000's slide: a compliant hand that starts sliding after a long stick.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct SpidarSlide {
     /// Hand mass, kg. Default 1 (seed 000's hand mass).
@@ -67,7 +68,7 @@ impl Default for SpidarSlide {
 }
 
 /// Seed 001's Fig. 5: a sinusoidal finger stroke starting at rest.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct SinusoidalStroke {
     /// Stroke amplitude A, m (the finger moves between 0 and 2A). Default 0.02.
@@ -97,7 +98,7 @@ impl SinusoidalStroke {
 }
 
 /// Seed 002's Fig. 6: reaches of the device through the virtual coupling.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct CoupledBlock {
     /// Reach end points at +- this, m. Default 0.012.
@@ -122,7 +123,7 @@ impl Default for CoupledBlock {
 }
 
 /// A scenario and its parameters, tagged by name.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(tag = "scenario", rename_all = "kebab-case")]
 pub enum ScenarioParams {
     /// Seed 000's slide.
@@ -348,9 +349,19 @@ fn reaches(s: &CoupledBlock, t: f64) -> (f64, f64) {
     if local <= 0.0 {
         return (from, 0.0);
     }
-    let tau = (local / s.move_s).min(1.0);
+    min_jerk(from, to, s.move_s, local)
+}
+
+/// Position and velocity at time `t` (s, from the start) of a minimum-jerk
+/// movement from `from` to `to` lasting `duration` s; at rest outside it.
+#[must_use]
+pub fn min_jerk(from: f64, to: f64, duration: f64, t: f64) -> (f64, f64) {
+    if t <= 0.0 || duration <= 0.0 {
+        return (if t <= 0.0 { from } else { to }, 0.0);
+    }
+    let tau = (t / duration).min(1.0);
     let shape = tau * tau * tau * (10.0 - 15.0 * tau + 6.0 * tau * tau);
-    let rate = 30.0 * tau * tau * (1.0 - tau) * (1.0 - tau) / s.move_s;
+    let rate = 30.0 * tau * tau * (1.0 - tau) * (1.0 - tau) / duration;
     (from + (to - from) * shape, (to - from) * rate)
 }
 

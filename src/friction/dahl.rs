@@ -28,12 +28,13 @@
 //! The CSV `state` is `slip` once `F s / Fc` reaches `slip_fraction` (a
 //! reporting convention: the Dahl model itself has no discrete states).
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::{ForceLimit, Input, Output, ParamError, Phase, collect, non_negative, positive, sign};
 
 /// Parameters of the Dahl model.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct DahlParams {
     /// Rest stiffness sigma, N/m. Default 2e4 (0.1 mm presliding at 2 N).

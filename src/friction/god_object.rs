@@ -32,6 +32,7 @@
 //!   signed with the slip direction, keeping the model direction-symmetric,
 //!   and the total force is clamped to the force limit.
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::{
@@ -49,7 +50,7 @@ pub trait StaticFrictionLaw: Copy {
 }
 
 /// Constant coefficients. Seed 000's comparison condition: mu_s 1.0, mu_d 0.6.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct ConstantStatic {
     /// Static coefficient (dimensionless, > `mu_d`). Default 1.0.
@@ -89,7 +90,7 @@ impl StaticFrictionLaw for ConstantStatic {
 /// Seed 000's time-varying static coefficient (after Dieterich):
 /// `mu_s(t) = mu_d + b log10(c t + 1)`, `t` the time since the stick phase
 /// began. Defaults mu_d 0.6, B 0.3, C 500 1/s.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct TimeVaryingStatic {
     /// Dynamic coefficient, also the static one at the start of a stick
@@ -129,12 +130,13 @@ impl StaticFrictionLaw for TimeVaryingStatic {
 
 /// Parameters of the god-object model. Defaults: the coupling that reproduces
 /// seed 000's Fig. 4 claim (STUDIES 1a) and the seed's vibration constants.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(
     deny_unknown_fields,
     default,
     bound(deserialize = "L: Deserialize<'de> + Default")
 )]
+#[schemars(bound = "L: JsonSchema + Default + Serialize")]
 pub struct GodObjectParams<L> {
     /// Proxy (god object) mass m, kg. Default 0.02.
     pub proxy_mass_kg: f64,

@@ -38,6 +38,7 @@
 //!   0.22 for the block on the coupling). The seed gives none of these but
 //!   the mass and the 2.0 N.
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::{
@@ -45,7 +46,7 @@ use super::{
 };
 
 /// Parameters of the modified Karnopp model and its virtual coupling.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct KarnoppParams {
     /// Virtual block mass M, kg. Default 1.0 (seed 002 Fig. 6).

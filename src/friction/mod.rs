@@ -32,6 +32,7 @@ pub mod karnopp;
 pub mod nakano;
 pub mod viscous;
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 pub use dahl::{Dahl, DahlParams};
@@ -56,7 +57,7 @@ pub struct Input {
 }
 
 /// Contact phase of a model's frictional element.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Phase {
     /// Static contact (or presliding).
@@ -250,7 +251,7 @@ pub(crate) fn collect(checks: impl IntoIterator<Item = Result<(), ParamError>>) 
 ///
 /// In JSON: `{"model": "karnopp", "f_static_n": 2.5, ...}`; omitted fields
 /// take the seeds' defaults, unknown fields are refused.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(tag = "model", rename_all = "kebab-case")]
 pub enum ModelParams {
     /// Seed 000's god object with constant coefficients (mu_s 1.0, mu_d 0.6).

@@ -46,6 +46,7 @@
 //! `force_scale` (force display only) scales the model's millinewton
 //! friction to the device: default 62.5, so `mu_s W` renders as 1 N.
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::{
@@ -54,7 +55,7 @@ use super::{
 
 /// Parameters of Nakano's model and its burst. See the module docs for the
 /// choices behind the defaults.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct NakanoParams {
     /// Object mass m, kg. Default 0.00016 (seed Fig. 5).

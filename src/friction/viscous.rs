@@ -5,12 +5,13 @@
 //! hand is exactly at rest and `slip` otherwise (viscous damping has no
 //! static phase of its own).
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::{ForceLimit, Input, Output, ParamError, Phase, collect, non_negative};
 
 /// Parameters of the viscous model.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct ViscousParams {
     /// Damping b, N s/m. Default 35 (seed 002).

@@ -1,0 +1,198 @@
+//! The simulated apparatus: seed 002's 1-DOF device (Table 2), with the
+//! participant's hand on it and the rendered friction acting on both.
+//!
+//! # Model (SI units; positive x = device positive direction)
+//! - Moving mass: the apparatus's 0.692 kg plus the hand's mass.
+//! - Forces: the hand's force (from the participant's motor model), the
+//!   rendered friction (the friction core, clamped to 9.48 N, the maximum
+//!   continuous force), the physical friction of a condition (e.g. an
+//!   aluminum block on rubber, not rendered: part of the apparatus),
+//!   end stops at +-1.6 cm (range 3.2 cm; a 2e4 N/m, 50 N s/m wall), and the
+//!   apparatus's own static friction of 0.75 N (Coulomb with stiction, the
+//!   same level sliding, as the seed gives only one value).
+//! - Integration: semi-implicit Euler at the model's loop rate.
+//! - Sensing: position quantized to the encoder resolution (Table 2's
+//!   position resolution, read as 2.57e-6 m; its exponent is garbled in the
+//!   seed's text: a 2048-line quadrature encoder, 8192 counts per turn, on a
+//!   3.35 mm capstan), velocity from the quantized position by differencing
+//!   and a first-order low-pass at 100 Hz. The friction models see what a
+//!   real host would: the measured position and the estimated velocity.
+//!
+//! No clock, no I/O: time is the `dt` argument.
+
+use crate::friction::{ForceLimit, Friction, Input, ModelParams};
+
+use super::DeviceSample;
+
+/// Parameters of the simulated apparatus (seed 002, Table 2).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Apparatus {
+    /// Moving mass of motor and slide, kg. 0.692.
+    pub mass_kg: f64,
+    /// Static (and sliding) friction of motor and slide, N. 0.75.
+    pub static_friction_n: f64,
+    /// Maximum continuous force, N. 9.48.
+    pub max_force_n: f64,
+    /// Range of motion, m. 0.032.
+    pub range_m: f64,
+    /// Encoder resolution, m. 2.57e-6.
+    pub encoder_m: f64,
+    /// Velocity estimate low-pass cutoff, Hz. 100.
+    pub velocity_cutoff_hz: f64,
+    /// End-stop stiffness, N/m. 2e4.
+    pub stop_stiffness_n_m: f64,
+    /// End-stop damping, N s/m. 50.
+    pub stop_damping_n_s_m: f64,
+}
+
+impl Default for Apparatus {
+    fn default() -> Self {
+        Apparatus {
+            mass_kg: 0.692,
+            static_friction_n: 0.75,
+            max_force_n: 9.48,
+            range_m: 0.032,
+            encoder_m: 2.57e-6,
+            velocity_cutoff_hz: 100.0,
+            stop_stiffness_n_m: 2e4,
+            stop_damping_n_s_m: 50.0,
+        }
+    }
+}
+
+/// The simulated device with a hand on it.
+#[derive(Debug, Clone)]
+pub struct SimDevice {
+    p: Apparatus,
+    mass_kg: f64,
+    limit: ForceLimit,
+    x: f64,
+    v: f64,
+    stuck: bool,
+    x_measured: f64,
+    v_estimate: f64,
+    rendered: Option<Friction>,
+    rendered_params: Option<ModelParams>,
+    physical: Option<Friction>,
+}
+
+impl SimDevice {
+    /// The apparatus at rest at 0 with a hand of `hand_mass_kg` on it.
+    #[must_use]
+    pub fn new(p: Apparatus, hand_mass_kg: f64) -> Self {
+        SimDevice {
+            p,
+            mass_kg: p.mass_kg + hand_mass_kg.max(0.0),
+            limit: ForceLimit::new(p.max_force_n).unwrap_or_default(),
+            x: 0.0,
+            v: 0.0,
+            stuck: true,
+            x_measured: 0.0,
+            v_estimate: 0.0,
+            rendered: None,
+            rendered_params: None,
+            physical: None,
+        }
+    }
+
+    /// Puts the device at rest at `x_m` (the hand repositions between
+    /// trials); models restart there.
+    pub fn reset(&mut self, x_m: f64) {
+        self.x = x_m;
+        self.v = 0.0;
+        self.stuck = true;
+        self.x_measured = self.quantize(x_m);
+        self.v_estimate = 0.0;
+        let params = self.rendered_params.take();
+        self.set_model(params.as_ref());
+    }
+
+    /// Renders `model` from now on (`None`: nothing). An invalid model renders
+    /// nothing (protocols are checked before they reach a device).
+    pub fn set_model(&mut self, model: Option<&ModelParams>) {
+        self.rendered_params = model.cloned();
+        self.rendered = model.and_then(|m| Friction::new(m, self.limit, self.x_measured).ok());
+    }
+
+    /// The physical friction of a condition from now on (`None`: none).
+    pub fn set_physical(&mut self, model: Option<&ModelParams>) {
+        self.physical = model
+            .and_then(|m| Friction::new(m, ForceLimit::new(1e3).unwrap_or_default(), self.x).ok());
+    }
+
+    /// True position, m (for tests; a real device only gives the measured one).
+    #[must_use]
+    pub fn true_position_m(&self) -> f64 {
+        self.x
+    }
+
+    fn quantize(&self, x: f64) -> f64 {
+        (x / self.p.encoder_m).round() * self.p.encoder_m
+    }
+
+    /// Advances by `dt` with the hand pushing with `hand_force_n`.
+    pub fn step(&mut self, dt: f64, hand_force_n: f64) -> DeviceSample {
+        // Sense.
+        let measured = self.quantize(self.x);
+        let raw_v = (measured - self.x_measured) / dt;
+        let alpha = (-std::f64::consts::TAU * self.p.velocity_cutoff_hz * dt).exp();
+        self.v_estimate = alpha * self.v_estimate + (1.0 - alpha) * raw_v;
+        self.x_measured = measured;
+        let sensed = Input {
+            x_m: measured,
+            v_m_s: self.v_estimate,
+        };
+        // Render.
+        let out = self.rendered.as_mut().map(|f| f.step(dt, sensed));
+        let rendered = out.map_or(0.0, |o| o.force_n);
+        let physical = self.physical.as_mut().map_or(0.0, |f| {
+            f.step(
+                dt,
+                Input {
+                    x_m: self.x,
+                    v_m_s: self.v,
+                },
+            )
+            .force_n
+        });
+        let half = self.p.range_m / 2.0;
+        let stop = if self.x.abs() > half {
+            -self.p.stop_stiffness_n_m * (self.x - half * self.x.signum())
+                - self.p.stop_damping_n_s_m * self.v
+        } else {
+            0.0
+        };
+        let hand = if hand_force_n.is_finite() {
+            hand_force_n
+        } else {
+            0.0
+        };
+        let net = hand + rendered + physical + stop;
+        // Apparatus friction with stiction, then move.
+        let fs = self.p.static_friction_n;
+        if self.stuck && net.abs() > fs {
+            self.stuck = false;
+        }
+        if !self.stuck {
+            let dir = if self.v == 0.0 {
+                net.signum()
+            } else {
+                self.v.signum()
+            };
+            let v_new = self.v + (net - dir * fs) / self.mass_kg * dt;
+            if v_new * dir <= 0.0 && net.abs() <= fs {
+                self.stuck = true;
+                self.v = 0.0;
+            } else {
+                self.v = v_new;
+            }
+        }
+        self.x += self.v * dt;
+        DeviceSample {
+            x_m: measured,
+            v_m_s: self.v_estimate,
+            force_n: rendered,
+            vibration: out.map_or(0.0, |o| o.vibration),
+        }
+    }
+}

@@ -1,0 +1,308 @@
+//! The headless session runner: a shell that connects the engine, the
+//! simulated device, the simulated participant and the results folder.
+//!
+//! This is one of the places (with the CLI and the GUI) that may read a
+//! clock and write files: it paces virtual time against the wall clock
+//! (`--pace`) and writes each trial record to the log, fsync'd, before it
+//! tells the engine the record is written. The physics runs in virtual
+//! time at the current model's loop rate; each trial starts with the device at
+//! rest at the participant's home position, so a resumed session replays
+//! exactly what an uninterrupted one would.
+
+use std::collections::VecDeque;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use crate::device::DeviceSample;
+use crate::device::sim::{Apparatus, SimDevice};
+use crate::participant::SimParticipant;
+use crate::protocol::Protocol;
+use crate::protocol::engine::{Action, Engine, Input, Status};
+use crate::protocol::plan::{Plan, resolve};
+use crate::results::{
+    Header, LOG_FORMAT, LogLine, ReadLog, ResultsDir, ResultsError, SessionLog, data_csv,
+    kinds_present, read_log, replace_file, sha256_hex, write_dataset_description,
+};
+
+/// What to run.
+#[derive(Debug, Clone)]
+pub struct SessionRequest<'a> {
+    /// The checked protocol.
+    pub protocol: &'a Protocol,
+    /// The protocol file's bytes (hashed into the log header).
+    pub protocol_bytes: &'a [u8],
+    /// Participant id (already checked).
+    pub participant: &'a str,
+    /// Counterbalancing index; default: participants already in the folder.
+    pub participant_index: Option<u32>,
+    /// Plan seed of a new session (a resumed one keeps its own).
+    pub seed: u64,
+    /// Continue the participant's last unfinished session.
+    pub resume: bool,
+    /// Virtual time runs this many times faster than real time; `None`: as
+    /// fast as possible.
+    pub pace: Option<f64>,
+}
+
+/// How a session went.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SessionOutcome {
+    /// Session number.
+    pub session: u32,
+    /// Trials completed in the whole session.
+    pub completed: usize,
+    /// Trials aborted in the whole session.
+    pub aborted: usize,
+    /// The trial a resume started at.
+    pub resumed_at: Option<usize>,
+    /// Bytes of a torn last log line cut off before resuming.
+    pub torn_bytes: u64,
+    /// Virtual time simulated by this run, s.
+    pub simulated_s: f64,
+    /// The data CSV.
+    pub csv: PathBuf,
+    /// The log.
+    pub log: PathBuf,
+}
+
+/// A session ready to run: its plan, its log, and where it starts.
+struct Prepared {
+    plan: Plan,
+    log: SessionLog,
+    read: ReadLog,
+    start_at: usize,
+    start_time: f64,
+    session: u32,
+    csv: PathBuf,
+    resumed_at: Option<usize>,
+    torn_bytes: u64,
+}
+
+fn prepare(dir: &ResultsDir, req: &SessionRequest<'_>) -> Result<Prepared, ResultsError> {
+    let id = &req.protocol.id;
+    let sessions = dir.sessions(id, req.participant)?;
+    if req.resume {
+        let Some(last) = sessions.last() else {
+            return Err(ResultsError::Input {
+                place: "--resume".into(),
+                message: format!(
+                    "participant '{}' has no session of '{id}' in {}",
+                    req.participant,
+                    dir.root().display()
+                ),
+            });
+        };
+        let read = read_log(&last.log)?;
+        if read.ended {
+            return Err(ResultsError::Input {
+                place: "--resume".into(),
+                message: format!(
+                    "session {} of participant '{}' has ended: nothing to resume",
+                    last.session, req.participant
+                ),
+            });
+        }
+        let h = &read.header;
+        let plan = resolve(&h.protocol, h.plan_seed, h.participant_index);
+        let start_at = read.next_trial();
+        let start_time = read.trials.last().map_or(0.0, |r| r.ended_s);
+        let (mut log, torn) = SessionLog::reopen(&last.log, read.valid_len)?;
+        log.append(&LogLine::Resumed {
+            at_trial: start_at,
+            torn_bytes: torn,
+        })?;
+        return Ok(Prepared {
+            plan,
+            log,
+            start_at,
+            start_time,
+            session: last.session,
+            csv: last.csv.clone(),
+            resumed_at: Some(start_at),
+            torn_bytes: torn,
+            read,
+        });
+    }
+    let session = sessions.last().map_or(1, |s| s.session + 1);
+    let files = dir.files(id, req.participant, session);
+    let participant_index = req
+        .participant_index
+        .unwrap_or_else(|| dir.other_participants(id, req.participant));
+    let plan = resolve(req.protocol, req.seed, participant_index);
+    let header = Header {
+        format: LOG_FORMAT.into(),
+        software_version: env!("CARGO_PKG_VERSION").into(),
+        protocol_id: id.clone(),
+        protocol_sha256: sha256_hex(req.protocol_bytes),
+        protocol: req.protocol.clone(),
+        plan_seed: req.seed,
+        participant: req.participant.to_owned(),
+        participant_index,
+        session,
+        device: "sim".into(),
+        responder: "sim".into(),
+        planned_trials: plan.trials.len(),
+    };
+    let log = SessionLog::create(&files.log, header.clone())?;
+    let read = ReadLog {
+        header,
+        trials: Vec::new(),
+        ended: false,
+        valid_len: 0,
+        torn_bytes: 0,
+    };
+    replace_file(&files.csv, data_csv(&read).as_bytes(), false)?;
+    write_dataset_description(dir, &kinds_present(dir))?;
+    Ok(Prepared {
+        plan,
+        log,
+        read,
+        start_at: 0,
+        start_time: 0.0,
+        session,
+        csv: files.csv,
+        resumed_at: None,
+        torn_bytes: 0,
+    })
+}
+
+/// Keeps virtual time from running ahead of `pace` x the wall clock.
+struct Pacer {
+    pace: Option<f64>,
+    wall: Instant,
+    virtual_start: f64,
+}
+
+impl Pacer {
+    fn wait(&self, t: f64) {
+        let Some(pace) = self.pace.filter(|p| p.is_finite() && *p > 0.0) else {
+            return;
+        };
+        let due = Duration::from_secs_f64(((t - self.virtual_start) / pace).max(0.0));
+        let elapsed = self.wall.elapsed();
+        if let Some(rest) = due.checked_sub(elapsed) {
+            std::thread::sleep(rest);
+        }
+    }
+}
+
+/// Runs (or resumes) one session with the simulated device and participant.
+///
+/// The loop drains the engine's actions, feeds the engine the participant's
+/// inputs one at a time, and otherwise advances the physics by one tick.
+/// `progress(done, total)` is called after each trial is on disk.
+///
+/// # Errors
+/// Bad input (resume without a session, a colliding id) or I/O.
+#[expect(
+    clippy::too_many_lines,
+    reason = "the session loop reads best in one place: actions, inputs, one tick"
+)]
+pub fn run_simulated(
+    dir: &ResultsDir,
+    req: &SessionRequest<'_>,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<SessionOutcome, ResultsError> {
+    let Prepared {
+        plan,
+        mut log,
+        mut read,
+        start_at,
+        start_time,
+        session,
+        csv,
+        resumed_at,
+        torn_bytes,
+    } = prepare(dir, req)?;
+    let total = plan.trials.len();
+    let seed = read.header.plan_seed;
+    let mut participant = SimParticipant::new(seed, &read.header.participant);
+    let mut device = SimDevice::new(Apparatus::default(), participant.traits().hand_mass_kg);
+    let mut engine = Engine::new(plan, start_at);
+    let pacer = Pacer {
+        pace: req.pace,
+        wall: Instant::now(),
+        virtual_start: start_time,
+    };
+
+    let mut t = start_time;
+    let mut dt = 1e-3;
+    let mut sample = DeviceSample::default();
+    let mut pending: VecDeque<Input> = VecDeque::from([Input::Start]);
+    let mut timers: Vec<f64> = Vec::new();
+    let mut ticks: u64 = 0;
+    loop {
+        while let Some(action) = engine.poll() {
+            match &action {
+                Action::Render(model) => {
+                    device.set_model(model.as_ref());
+                    if let Some(m) = model {
+                        dt = 1.0 / m.loop_rate_hz();
+                    }
+                }
+                Action::Physical(model) => device.set_physical(model.as_ref()),
+                Action::WakeAt(at) => timers.push(*at),
+                Action::Record(record) => {
+                    log.append(&LogLine::Trial(record.clone()))?;
+                    read.trials.push(record.clone());
+                    replace_file(&csv, data_csv(&read).as_bytes(), false)?;
+                    pending.push_back(Input::Recorded);
+                    progress(record.trial + 1, total);
+                }
+                Action::Finished => {
+                    let completed = read
+                        .trials
+                        .iter()
+                        .filter(|r| r.status == Status::Completed)
+                        .count();
+                    let aborted = read.trials.len() - completed;
+                    log.append(&LogLine::End { completed, aborted })?;
+                    return Ok(SessionOutcome {
+                        session,
+                        completed,
+                        aborted,
+                        resumed_at,
+                        torn_bytes,
+                        simulated_s: t - start_time,
+                        csv,
+                        log: log.path().to_owned(),
+                    });
+                }
+                _ => {}
+            }
+            let reaction = participant.on_action(t, &action, engine.trial());
+            if let Some(x) = reaction.reset_to {
+                device.reset(x);
+                sample = DeviceSample {
+                    x_m: x,
+                    ..DeviceSample::default()
+                };
+            }
+            pending.extend(reaction.inputs);
+        }
+        if let Some(input) = pending.pop_front() {
+            engine.handle(t, input);
+            continue;
+        }
+        let force = participant.hand_force(t, dt, &sample);
+        sample = device.step(dt, force);
+        t += dt;
+        ticks += 1;
+        let reaction = participant.decide(t, &sample);
+        if let Some(x) = reaction.reset_to {
+            device.reset(x);
+            sample = DeviceSample {
+                x_m: x,
+                ..DeviceSample::default()
+            };
+        }
+        pending.extend(reaction.inputs);
+        if timers.iter().any(|&w| w <= t) {
+            timers.retain(|&w| w > t);
+            pending.push_back(Input::Timer);
+        }
+        if ticks.is_multiple_of(64) {
+            pacer.wait(t);
+        }
+    }
+}
