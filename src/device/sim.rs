@@ -74,6 +74,9 @@ pub struct SimDevice {
     rendered: Option<Friction>,
     rendered_params: Option<ModelParams>,
     physical: Option<Friction>,
+    /// `dt` for which `alpha` was computed, and the velocity filter's
+    /// coefficient `exp(-2 pi f_c dt)`.
+    filter: (f64, f64),
 }
 
 impl SimDevice {
@@ -92,6 +95,7 @@ impl SimDevice {
             rendered: None,
             rendered_params: None,
             physical: None,
+            filter: (0.0, 0.0),
         }
     }
 
@@ -135,7 +139,13 @@ impl SimDevice {
         // Sense.
         let measured = self.quantize(self.x);
         let raw_v = (measured - self.x_measured) / dt;
-        let alpha = (-std::f64::consts::TAU * self.p.velocity_cutoff_hz * dt).exp();
+        if self.filter.0 != dt {
+            self.filter = (
+                dt,
+                (-std::f64::consts::TAU * self.p.velocity_cutoff_hz * dt).exp(),
+            );
+        }
+        let alpha = self.filter.1;
         self.v_estimate = alpha * self.v_estimate + (1.0 - alpha) * raw_v;
         self.x_measured = measured;
         let sensed = Input {

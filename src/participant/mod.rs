@@ -35,7 +35,8 @@
 //!   the participant clicks once slow, if it perceives (with noise) the
 //!   cursor within 80% of the half-width from the centre, else it corrects
 //!   (at most 3 times, then clicks anyway). The integral term restarts with
-//!   each movement and is limited to 4 N. Friction changes time and errors physically: stiction
+//!   each new target, keeps building through corrections of the same one
+//!   (a person pushes harder while stuck), and is limited to 12 N. Friction changes time and errors physically: stiction
 //!   holds the device until the hand's force breaks it free, and it then
 //!   overshoots.
 
@@ -347,7 +348,9 @@ impl SimParticipant {
             let aim_sd = self.traits.aim_sd * w_eff * if missed { 0.5 } else { 1.0 };
             let to = centres[lit] + self.normal(aim_sd);
             let duration = self.movement_time(from, to, w_eff);
-            self.integral = 0.0;
+            if !missed {
+                self.integral = 0.0;
+            }
             self.behaviour = Behaviour::Tap(Tap {
                 centres,
                 lit,
@@ -440,7 +443,7 @@ impl SimParticipant {
     pub fn hand_force(&mut self, now: f64, dt: f64, sample: &DeviceSample) -> f64 {
         let d = self.drive(now, sample);
         let e = d.x - sample.x_m;
-        let limit = 4.0;
+        let limit = 12.0;
         if d.ki > 0.0 {
             self.integral = (self.integral + d.ki * e * dt).clamp(-limit, limit);
         } else {
@@ -523,7 +526,6 @@ impl SimParticipant {
                 let aim = self.traits.aim_sd * width * 0.5;
                 let to = centre + self.normal(aim);
                 let duration = self.movement_time(x, to, width);
-                self.integral = 0.0;
                 let Behaviour::Tap(tap) = &mut self.behaviour else {
                     return Reaction::default();
                 };
