@@ -7,6 +7,13 @@
 //! reads no clock, touches no file or port, and draws no random numbers: the
 //! same inputs give the same actions.
 //!
+//! # Device samples
+//! The engine needs only the moments that matter to the protocol: the shell
+//! turns a button press (device button, mouse, space bar) into
+//! [`Input::Click`] carrying the sampled cursor position. The continuous
+//! sample stream stays in the shell (haptic loop, cursor display) and does
+//! not pass through the engine.
+//!
 //! # The write rule
 //! After [`Action::Record`] the engine waits for [`Input::Recorded`]: the
 //! shell sends it once the record is on disk (flushed and synced), and only
