@@ -39,6 +39,15 @@ enum Command {
     /// Runs N whole sessions with simulated participants on the simulated
     /// device.
     Simulate(SimulateArgs),
+    /// Reads a results folder and writes summary.json, report.html and the
+    /// tables (CSV and Parquet).
+    Analyze {
+        /// The results folder.
+        dir: PathBuf,
+        /// Where to write the report (default: DIR/report).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Prints a JSON Schema: of protocol files, or of session log lines.
     Schema {
         /// `protocol` or `log`.
@@ -165,6 +174,7 @@ pub fn main() -> ExitCode {
         Command::Validate { protocols } => validate_command(&protocols),
         Command::Run(args) => run_command(&args),
         Command::Simulate(args) => simulate_command(&args),
+        Command::Analyze { dir, out } => analyze_command(&dir, out.as_deref()),
         Command::Schema { which } => {
             if which == "log" {
                 print!("{}", crate::results::log_json_schema());
@@ -264,6 +274,26 @@ fn validate_command(paths: &[PathBuf]) -> Result<(), Failure> {
     } else {
         Err(errors.into())
     }
+}
+
+fn analyze_command(dir: &Path, out: Option<&Path>) -> Result<(), Failure> {
+    let analysis = crate::analysis::analyze(dir)
+        .map_err(|e| Failure::from(vec![UserError::new(e.place, e.message)]))?;
+    let out = out.map_or_else(|| dir.join("report"), Path::to_path_buf);
+    crate::analysis::write(&analysis, &out).map_err(|(path, message)| Failure {
+        code: EXIT_FAILURE,
+        errors: vec![UserError::new(path, message)],
+    })?;
+    for note in analysis.summary["notes"].as_array().into_iter().flatten() {
+        eprintln!("note: {}", note.as_str().unwrap_or_default());
+    }
+    println!(
+        "analysed {} -> {} (summary.json, report.html, {} tables as CSV and Parquet)",
+        dir.display(),
+        out.display(),
+        analysis.tables.len()
+    );
+    Ok(())
 }
 
 fn check_pace(pace: f64) -> Result<(), Vec<UserError>> {

@@ -5,6 +5,7 @@
 //! scenarios ([`scenario`]) read no clock and do no I/O; the command line
 //! ([`cli`]) is a thin shell over them.
 
+pub mod analysis;
 pub mod cli;
 pub mod device;
 pub mod friction;

@@ -235,6 +235,15 @@ impl ResultsDir {
         out
     }
 
+    /// The headers of every readable session log in the folder.
+    #[must_use]
+    pub fn headers(&self) -> Vec<Header> {
+        self.logs()
+            .iter()
+            .filter_map(|p| read_header(p).ok())
+            .collect()
+    }
+
     /// Sessions of `participant` for `protocol_id`, by number, refusing a
     /// participant id whose file name would collide with another's.
     ///

@@ -1,0 +1,520 @@
+//! `frictionlab analyze`: a results folder in, the three studies' statistics
+//! out (`summary.json`, tables as CSV and Parquet, an HTML report with SVG
+//! figures).
+//!
+//! It reads only the documented results files (`results-schema/`): the data
+//! CSVs, with polars (lazy scan, all columns read as text, filtered to
+//! completed non-practice trials), and the session logs' headers for the
+//! order of the magnitude-estimation displays. Numbers are parsed here so that
+//! a bad value is reported with its file and line.
+//!
+//! Statistics that cannot be computed (one display only, too few points)
+//! are `null` in `summary.json`, with the reason in `notes`. Input that
+//! cannot be analysed at all (no data files, missing columns, non-numeric or
+//! non-positive magnitudes) is an [`AnalysisError`].
+
+pub mod fitts;
+pub mod magnitude;
+pub mod paired;
+pub mod report;
+pub mod stats;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use polars::prelude::*;
+use serde_json::{Value, json};
+
+use crate::results::{COMMON_COLUMNS, ResultsDir, kind_columns};
+
+/// Input that cannot be analysed: printed as `error: <place>: <message>`.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{place}: {message}")]
+pub struct AnalysisError {
+    /// File (with `line:column` when known) or folder.
+    pub place: String,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl AnalysisError {
+    fn new(place: impl Into<String>, message: impl Into<String>) -> Self {
+        AnalysisError {
+            place: place.into(),
+            message: message.into(),
+        }
+    }
+}
+
+/// One output table: named columns of cells, written as CSV and Parquet.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table {
+    /// File stem and title.
+    pub name: String,
+    /// Column names.
+    pub columns: Vec<String>,
+    /// Rows (one cell per column).
+    pub rows: Vec<Vec<Cell>>,
+}
+
+/// A table cell.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Cell {
+    /// Text.
+    Text(String),
+    /// A number, or missing.
+    Num(Option<f64>),
+}
+
+impl Cell {
+    fn as_csv(&self) -> String {
+        match self {
+            Cell::Text(s) if s.contains([',', '"', '\n']) => {
+                format!("\"{}\"", s.replace('"', "\"\""))
+            }
+            Cell::Text(s) => s.clone(),
+            Cell::Num(Some(x)) => x.to_string(),
+            Cell::Num(None) => String::new(),
+        }
+    }
+}
+
+/// A text cell.
+pub fn text(s: impl Into<String>) -> Cell {
+    Cell::Text(s.into())
+}
+
+/// A number cell.
+#[must_use]
+pub fn num(x: f64) -> Cell {
+    Cell::Num(x.is_finite().then_some(x))
+}
+
+/// An optional number cell.
+#[must_use]
+pub fn opt(x: Option<f64>) -> Cell {
+    Cell::Num(x.filter(|v| v.is_finite()))
+}
+
+impl Table {
+    /// The table as CSV text.
+    #[must_use]
+    pub fn csv(&self) -> String {
+        let mut out = self.columns.join(",");
+        out.push('\n');
+        for row in &self.rows {
+            out.push_str(&row.iter().map(Cell::as_csv).collect::<Vec<_>>().join(","));
+            out.push('\n');
+        }
+        out
+    }
+
+    /// The table as a polars `DataFrame` (text columns as strings, numbers as
+    /// nullable f64).
+    ///
+    /// # Errors
+    /// A polars error.
+    pub fn frame(&self) -> PolarsResult<DataFrame> {
+        let columns: Vec<Column> = self
+            .columns
+            .iter()
+            .enumerate()
+            .map(|(i, name)| {
+                let is_text = self
+                    .rows
+                    .iter()
+                    .any(|r| matches!(r.get(i), Some(Cell::Text(_))));
+                if is_text {
+                    let v: Vec<Option<String>> = self
+                        .rows
+                        .iter()
+                        .map(|r| match r.get(i) {
+                            Some(Cell::Text(s)) => Some(s.clone()),
+                            Some(Cell::Num(Some(x))) => Some(x.to_string()),
+                            _ => None,
+                        })
+                        .collect();
+                    Column::new(name.as_str().into(), v)
+                } else {
+                    let v: Vec<Option<f64>> = self
+                        .rows
+                        .iter()
+                        .map(|r| {
+                            if let Some(Cell::Num(x)) = r.get(i) {
+                                *x
+                            } else {
+                                None
+                            }
+                        })
+                        .collect();
+                    Column::new(name.as_str().into(), v)
+                }
+            })
+            .collect();
+        DataFrame::new_infer_height(columns)
+    }
+}
+
+/// A finished analysis.
+#[derive(Debug, Clone)]
+pub struct Analysis {
+    /// `summary.json`'s content.
+    pub summary: Value,
+    /// The tables.
+    pub tables: Vec<Table>,
+    /// The HTML report.
+    pub html: String,
+}
+
+/// The data rows of one kind: column name -> values (text), plus where each
+/// row came from.
+#[derive(Debug, Clone, Default)]
+pub struct Rows {
+    /// Columns by name.
+    pub columns: BTreeMap<String, Vec<String>>,
+    /// Source file of each row.
+    pub files: Vec<String>,
+}
+
+impl Rows {
+    /// Number of rows.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.files.len()
+    }
+
+    /// Whether there are no rows.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.files.is_empty()
+    }
+
+    /// The text of `column` at `row`.
+    #[must_use]
+    pub fn text(&self, column: &str, row: usize) -> &str {
+        self.columns
+            .get(column)
+            .and_then(|c| c.get(row))
+            .map_or("", String::as_str)
+    }
+
+    /// `column` at `row` as a number, with the file and line on error.
+    ///
+    /// # Errors
+    /// The value is not a finite number.
+    pub fn number(&self, column: &str, row: usize) -> Result<f64, AnalysisError> {
+        let t = self.text(column, row);
+        match t.trim().parse::<f64>() {
+            Ok(x) if x.is_finite() => Ok(x),
+            _ => Err(self.error(column, row, &format!("'{t}' is not a finite number"))),
+        }
+    }
+
+    /// `column` at `row` as a number, or `None` if the cell is empty.
+    ///
+    /// # Errors
+    /// A non-empty value that is not a finite number.
+    pub fn optional(&self, column: &str, row: usize) -> Result<Option<f64>, AnalysisError> {
+        if self.text(column, row).trim().is_empty() {
+            Ok(None)
+        } else {
+            self.number(column, row).map(Some)
+        }
+    }
+
+    /// `column` at `row` as a `;`-separated list of numbers.
+    ///
+    /// # Errors
+    /// An element that is not a finite number.
+    pub fn list(&self, column: &str, row: usize) -> Result<Vec<f64>, AnalysisError> {
+        let t = self.text(column, row);
+        if t.trim().is_empty() {
+            return Ok(Vec::new());
+        }
+        t.split(';')
+            .map(|s| match s.trim().parse::<f64>() {
+                Ok(x) if x.is_finite() => Ok(x),
+                _ => Err(self.error(
+                    column,
+                    row,
+                    &format!("'{s}' in '{t}' is not a finite number"),
+                )),
+            })
+            .collect()
+    }
+
+    /// An error at the line of `row` in its file (found by reading the file;
+    /// only on this error path).
+    #[must_use]
+    pub fn error(&self, column: &str, row: usize, message: &str) -> AnalysisError {
+        let file = self.files.get(row).cloned().unwrap_or_default();
+        let trial = self.text("trial", row).to_owned();
+        let participant = self.text("participant", row).to_owned();
+        let place = locate(&file, column, &participant, &trial)
+            .map_or(file.clone(), |(l, c)| format!("{file}: {l}:{c}"));
+        AnalysisError::new(place, format!("{column}: {message}"))
+    }
+}
+
+/// Line and column (1-based) of `column` in the row of `participant` and
+/// `trial` of a data CSV.
+fn locate(file: &str, column: &str, participant: &str, trial: &str) -> Option<(usize, usize)> {
+    let text = std::fs::read_to_string(file).ok()?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next()?.split(',').collect();
+    let col = header.iter().position(|h| *h == column)?;
+    let (pcol, tcol) = (
+        header.iter().position(|h| *h == "participant")?,
+        header.iter().position(|h| *h == "trial")?,
+    );
+    for (i, line) in lines.enumerate() {
+        let cells = split_csv(line);
+        if cells.get(pcol).map(String::as_str) == Some(participant)
+            && cells.get(tcol).map(String::as_str) == Some(trial)
+        {
+            let offset: usize = line.split(',').take(col).map(|c| c.len() + 1).sum();
+            return Some((i + 2, offset + 1));
+        }
+    }
+    None
+}
+
+/// Splits one CSV line, honouring double quotes.
+fn split_csv(line: &str) -> Vec<String> {
+    let (mut cells, mut cur, mut quoted) = (Vec::new(), String::new(), false);
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match c {
+            '"' if quoted && chars.peek() == Some(&'"') => {
+                cur.push('"');
+                chars.next();
+            }
+            '"' => quoted = !quoted,
+            ',' if !quoted => cells.push(std::mem::take(&mut cur)),
+            _ => cur.push(c),
+        }
+    }
+    cells.push(cur);
+    cells
+}
+
+/// The data CSVs of `dir`, sorted.
+fn data_files(dir: &Path) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir.join("data"))
+        .map(|entries| {
+            entries
+                .filter_map(Result::ok)
+                .map(|e| e.path())
+                .filter(|p| p.to_string_lossy().ends_with("_data.csv"))
+                .collect()
+        })
+        .unwrap_or_default();
+    files.sort();
+    files
+}
+
+/// Columns the analysis of each kind reads.
+fn needed(kind: crate::protocol::Kind) -> Vec<&'static str> {
+    let mut c: Vec<&str> = vec!["participant", "trial", "status", "practice"];
+    c.extend(kind_columns(kind).iter().copied().filter(|k| {
+        !matches!(
+            *k,
+            "response_time_s" | "effective_width_m" | "cursor_m" | "miss_x_m"
+        )
+    }));
+    c
+}
+
+/// Reads every data CSV of the folder, grouped by kind: completed,
+/// non-practice rows only.
+///
+/// # Errors
+/// No data files, a file whose kind cannot be told, missing columns, or a
+/// CSV polars cannot read.
+pub fn load(dir: &Path) -> Result<BTreeMap<&'static str, Rows>, AnalysisError> {
+    use crate::protocol::Kind;
+    let files = data_files(dir);
+    if files.is_empty() {
+        return Err(AnalysisError::new(
+            dir.display().to_string(),
+            "no data files (expected data/*_data.csv, as written by frictionlab run or simulate)",
+        ));
+    }
+    let mut by_kind: BTreeMap<&'static str, (Kind, Vec<PathBuf>)> = BTreeMap::new();
+    for file in &files {
+        let name = file.display().to_string();
+        let header = std::fs::read_to_string(file)
+            .map_err(|e| AnalysisError::new(&name, format!("cannot read: {e}")))?
+            .lines()
+            .next()
+            .map(|l| l.split(',').map(str::to_owned).collect::<Vec<_>>())
+            .unwrap_or_default();
+        let has = |c: &str| header.iter().any(|h| h == c);
+        let kind = if has("display") {
+            Kind::MagnitudeEstimation
+        } else if has("choice") {
+            Kind::PairedComparison
+        } else if has("id_bits") {
+            Kind::Fitts
+        } else {
+            return Err(AnalysisError::new(
+                format!("{name}: 1:1"),
+                "cannot tell the kind of session: none of the columns display, choice, id_bits",
+            ));
+        };
+        for c in COMMON_COLUMNS.iter().copied().chain(needed(kind)) {
+            if !has(c) {
+                return Err(AnalysisError::new(
+                    format!("{name}: 1:1"),
+                    format!("missing column '{c}'"),
+                ));
+            }
+        }
+        by_kind
+            .entry(kind.as_str())
+            .or_insert((kind, Vec::new()))
+            .1
+            .push(file.clone());
+    }
+    let mut out = BTreeMap::new();
+    for (name, (kind, paths)) in by_kind {
+        out.insert(name, scan(&paths, &needed(kind))?);
+    }
+    Ok(out)
+}
+
+/// Lazily scans `paths` (all columns as text), keeps completed non-practice
+/// rows and the `columns` asked for.
+fn scan(paths: &[PathBuf], columns: &[&str]) -> Result<Rows, AnalysisError> {
+    let place = paths
+        .first()
+        .map(|p| p.display().to_string())
+        .unwrap_or_default();
+    let fail = |e: PolarsError| AnalysisError::new(&place, format!("cannot read the CSV: {e}"));
+    let sources: Vec<PlRefPath> = paths
+        .iter()
+        .map(|p| PlRefPath::from(p.to_string_lossy().as_ref()))
+        .collect();
+    let mut select: Vec<Expr> = columns.iter().map(|c| col(*c)).collect();
+    select.push(col("__file"));
+    let frame = LazyCsvReader::new_paths(sources.into())
+        .with_infer_schema_length(Some(0))
+        .with_include_file_paths(Some("__file".into()))
+        .finish()
+        .map_err(fail)?
+        .filter(
+            col("status")
+                .eq(lit("completed"))
+                .and(col("practice").eq(lit("false"))),
+        )
+        .select(select)
+        .collect()
+        .map_err(fail)?;
+    let text_column = |name: &str| -> Result<Vec<String>, AnalysisError> {
+        let c = frame.column(name).map_err(fail)?;
+        let s = c.str().map_err(fail)?;
+        Ok(s.iter().map(|v| v.unwrap_or_default().to_owned()).collect())
+    };
+    let mut rows = Rows {
+        files: text_column("__file")?,
+        ..Rows::default()
+    };
+    for c in columns {
+        rows.columns.insert((*c).to_owned(), text_column(c)?);
+    }
+    Ok(rows)
+}
+
+/// Runs every analysis the folder's data allows.
+///
+/// # Errors
+/// Input that cannot be analysed.
+pub fn analyze(dir: &Path) -> Result<Analysis, AnalysisError> {
+    let data = load(dir)?;
+    let mut summary = serde_json::Map::new();
+    let mut tables = Vec::new();
+    let mut notes: Vec<String> = Vec::new();
+    let mut sections = Vec::new();
+    let order = display_order(dir);
+    if let Some(rows) = data.get("magnitude_estimation") {
+        let m = magnitude::analyze(rows, &order)?;
+        summary.insert("magnitude_estimation".into(), m.summary.clone());
+        notes.extend(m.notes.iter().cloned());
+        sections.push(report::magnitude_section(&m));
+        tables.extend(m.tables);
+    }
+    if let Some(rows) = data.get("paired_comparison") {
+        let p = paired::analyze(rows)?;
+        summary.insert("paired_comparison".into(), p.summary.clone());
+        notes.extend(p.notes.iter().cloned());
+        sections.push(report::paired_section(&p));
+        tables.extend(p.tables);
+    }
+    if let Some(rows) = data.get("fitts") {
+        let f = fitts::analyze(rows)?;
+        summary.insert("fitts".into(), f.summary.clone());
+        notes.extend(f.notes.iter().cloned());
+        sections.push(report::fitts_section(&f));
+        tables.extend(f.tables);
+    }
+    let rows: BTreeMap<&str, usize> = data.iter().map(|(k, v)| (*k, v.len())).collect();
+    summary.insert(
+        "inputs".into(),
+        json!({"folder": dir.display().to_string(), "analysed_rows": rows, "rule": "completed, non-practice trials"}),
+    );
+    summary.insert("notes".into(), json!(notes));
+    let summary = Value::Object(summary);
+    let html = report::page(dir, &summary, &sections, &notes);
+    Ok(Analysis {
+        summary,
+        tables,
+        html,
+    })
+}
+
+/// Display order for magnitude estimation: the protocol's set order, from the
+/// first session log header that has one; empty if none.
+fn display_order(dir: &Path) -> Vec<String> {
+    ResultsDir::new(dir)
+        .headers()
+        .into_iter()
+        .find_map(|h| match h.protocol.design {
+            crate::protocol::Design::MagnitudeEstimation(d) => {
+                Some(d.sets.into_iter().map(|s| s.display).collect())
+            }
+            _ => None,
+        })
+        .unwrap_or_default()
+}
+
+/// Writes `summary.json`, `report.html`, and every table as
+/// `tables/<name>.csv` and `tables/<name>.parquet` into `out`.
+///
+/// # Errors
+/// An I/O or Parquet error, as (path, message).
+pub fn write(analysis: &Analysis, out: &Path) -> Result<(), (String, String)> {
+    use crate::results::replace_file;
+    let io = |p: &Path| {
+        let path = p.display().to_string();
+        move |e: crate::results::ResultsError| (path, e.to_string())
+    };
+    let summary = serde_json::to_string_pretty(&analysis.summary).unwrap_or_default() + "\n";
+    let path = out.join("summary.json");
+    replace_file(&path, summary.as_bytes(), true).map_err(io(&path))?;
+    let path = out.join("report.html");
+    replace_file(&path, analysis.html.as_bytes(), true).map_err(io(&path))?;
+    for table in &analysis.tables {
+        let path = out.join("tables").join(format!("{}.csv", table.name));
+        replace_file(&path, table.csv().as_bytes(), true).map_err(io(&path))?;
+        let path = out.join("tables").join(format!("{}.parquet", table.name));
+        let mut bytes = Vec::new();
+        let mut df = table
+            .frame()
+            .map_err(|e| (path.display().to_string(), e.to_string()))?;
+        ParquetWriter::new(&mut bytes)
+            .finish(&mut df)
+            .map_err(|e| (path.display().to_string(), e.to_string()))?;
+        replace_file(&path, &bytes, true).map_err(io(&path))?;
+    }
+    Ok(())
+}

@@ -1,0 +1,185 @@
+//! Small statistics, each a pure function with its definition in its doc.
+//! Distributions come from `statrs`.
+
+use statrs::distribution::{Binomial, ContinuousCDF, DiscreteCDF, StudentsT};
+
+/// Geometric mean of positive values: `exp(mean(ln x))`; `None` if empty.
+#[must_use]
+pub fn geometric_mean(xs: &[f64]) -> Option<f64> {
+    (!xs.is_empty()).then(|| (xs.iter().map(|x| x.ln()).sum::<f64>() / xs.len() as f64).exp())
+}
+
+/// Arithmetic mean; `None` if empty.
+#[must_use]
+pub fn mean(xs: &[f64]) -> Option<f64> {
+    (!xs.is_empty()).then(|| xs.iter().sum::<f64>() / xs.len() as f64)
+}
+
+/// Sample standard deviation (n - 1); `None` for fewer than two values.
+#[must_use]
+pub fn sample_sd(xs: &[f64]) -> Option<f64> {
+    let m = mean(xs)?;
+    (xs.len() >= 2)
+        .then(|| (xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (xs.len() - 1) as f64).sqrt())
+}
+
+/// Pearson correlation with its 95% confidence interval (Fisher z) and
+/// two-sided p (t test, n - 2 degrees of freedom).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Correlation {
+    /// Pearson r.
+    pub r: f64,
+    /// Number of pairs.
+    pub n: usize,
+    /// 95% CI lower bound (`None` for n <= 3).
+    pub ci_low: Option<f64>,
+    /// 95% CI upper bound (`None` for n <= 3).
+    pub ci_high: Option<f64>,
+    /// Two-sided p for r = 0 (`None` for n <= 2).
+    pub p: Option<f64>,
+}
+
+/// Pearson r of the pairs; `None` for fewer than 3 pairs or no variance.
+#[must_use]
+pub fn pearson(pairs: &[(f64, f64)]) -> Option<Correlation> {
+    let n = pairs.len();
+    if n < 3 {
+        return None;
+    }
+    let mx = pairs.iter().map(|p| p.0).sum::<f64>() / n as f64;
+    let my = pairs.iter().map(|p| p.1).sum::<f64>() / n as f64;
+    let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
+    for &(x, y) in pairs {
+        sxy += (x - mx) * (y - my);
+        sxx += (x - mx) * (x - mx);
+        syy += (y - my) * (y - my);
+    }
+    if sxx <= 0.0 || syy <= 0.0 {
+        return None;
+    }
+    let r = (sxy / (sxx * syy).sqrt()).clamp(-1.0, 1.0);
+    let (ci_low, ci_high) = if n > 3 && r.abs() < 1.0 {
+        let z = r.atanh();
+        let half = 1.959_963_984_540_054 / ((n - 3) as f64).sqrt();
+        (Some((z - half).tanh()), Some((z + half).tanh()))
+    } else {
+        (None, None)
+    };
+    let df = (n - 2) as f64;
+    let p = if r.abs() >= 1.0 {
+        Some(0.0)
+    } else {
+        let t = r * (df / (1.0 - r * r)).sqrt();
+        StudentsT::new(0.0, 1.0, df)
+            .ok()
+            .map(|d| 2.0 * (1.0 - d.cdf(t.abs())))
+    };
+    Some(Correlation {
+        r,
+        n,
+        ci_low,
+        ci_high,
+        p,
+    })
+}
+
+/// Ordinary least squares of y on x.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Fit {
+    /// Intercept.
+    pub intercept: f64,
+    /// Slope.
+    pub slope: f64,
+    /// Coefficient of determination.
+    pub r2: f64,
+    /// Points.
+    pub n: usize,
+}
+
+/// OLS fit of y = intercept + slope x; `None` for fewer than 2 points or no
+/// spread in x.
+#[must_use]
+pub fn linear_fit(points: &[(f64, f64)]) -> Option<Fit> {
+    let n = points.len();
+    if n < 2 {
+        return None;
+    }
+    let mx = points.iter().map(|p| p.0).sum::<f64>() / n as f64;
+    let my = points.iter().map(|p| p.1).sum::<f64>() / n as f64;
+    let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    if sxx <= 0.0 {
+        return None;
+    }
+    let sxy: f64 = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let slope = sxy / sxx;
+    let intercept = my - slope * mx;
+    let ss_tot: f64 = points.iter().map(|p| (p.1 - my).powi(2)).sum();
+    let ss_res: f64 = points
+        .iter()
+        .map(|p| (p.1 - intercept - slope * p.0).powi(2))
+        .sum();
+    let r2 = if ss_tot > 0.0 {
+        1.0 - ss_res / ss_tot
+    } else {
+        1.0
+    };
+    Some(Fit {
+        intercept,
+        slope,
+        r2,
+        n,
+    })
+}
+
+/// Two-sided exact binomial test of `k` successes in `n` trials against
+/// p = 0.5: `min(1, 2 P(X <= min(k, n - k)))`. `None` for n = 0.
+#[must_use]
+pub fn binomial_two_sided(k: u64, n: u64) -> Option<f64> {
+    if n == 0 || k > n {
+        return None;
+    }
+    let d = Binomial::new(0.5, n).ok()?;
+    Some((2.0 * d.cdf(k.min(n - k))).min(1.0))
+}
+
+/// ISO 9241-9 effective throughput of one sequence of taps, bits/s.
+///
+/// Movement i runs from tap i-1 to tap i (i >= 1). With `a_i = |x_i - x_{i-1}|`
+/// and the endpoint deviation along the movement
+/// `dx_i = (x_i - target_i) sgn(target_i - target_{i-1})`:
+/// `We = 4.133 SD(dx)`, `Ae = mean(a_i)`, `IDe = log2(Ae / We + 1)`,
+/// `MT = (t_last - t_first) / movements`, `TP = IDe / MT`.
+/// `None` with fewer than 2 movements, no endpoint spread, or no time.
+#[must_use]
+pub fn effective_throughput(times: &[f64], x: &[f64], targets: &[f64]) -> Option<f64> {
+    let n = times.len().min(x.len()).min(targets.len());
+    if n < 3 {
+        return None;
+    }
+    let mut amplitudes = Vec::with_capacity(n - 1);
+    let mut deviations = Vec::with_capacity(n - 1);
+    for i in 1..n {
+        amplitudes.push((x[i] - x[i - 1]).abs());
+        let dir = (targets[i] - targets[i - 1]).signum();
+        deviations.push((x[i] - targets[i]) * dir);
+    }
+    let we = 4.133 * sample_sd(&deviations)?;
+    let ae = mean(&amplitudes)?;
+    let mt = (times[n - 1] - times[0]) / (n - 1) as f64;
+    (we > 0.0 && mt > 0.0).then(|| (ae / we + 1.0).log2() / mt)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn binomial_matches_hand_values() {
+        // 6 of 6: 2 * 0.5^6.
+        assert!((binomial_two_sided(6, 6).unwrap() - 0.031_25).abs() < 1e-15);
+        // 5 of 6: 2 * (1 + 6) / 64.
+        assert!((binomial_two_sided(5, 6).unwrap() - 14.0 / 64.0).abs() < 1e-12);
+        assert_eq!(binomial_two_sided(3, 6), Some(1.0));
+        assert_eq!(binomial_two_sided(0, 0), None);
+    }
+}
