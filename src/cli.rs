@@ -287,13 +287,24 @@ fn analyze_command(dir: &Path, out: Option<&Path>) -> Result<(), Failure> {
     for note in analysis.summary["notes"].as_array().into_iter().flatten() {
         eprintln!("note: {}", note.as_str().unwrap_or_default());
     }
+    let peak = peak_memory_mib()
+        .map(|m| format!(", peak memory {m} MiB"))
+        .unwrap_or_default();
     println!(
-        "analysed {} -> {} (summary.json, report.html, {} tables as CSV and Parquet)",
+        "analysed {} -> {} (summary.json, report.html, {} tables as CSV and Parquet{peak})",
         dir.display(),
         out.display(),
         analysis.tables.len()
     );
     Ok(())
+}
+
+/// This process's peak resident memory, MiB (Linux: `VmHWM`).
+fn peak_memory_mib() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib / 1024)
 }
 
 fn check_pace(pace: f64) -> Result<(), Vec<UserError>> {

@@ -18,7 +18,7 @@
 //!   of value against mu_s and against mu_k, with Pearson r: which
 //!   coefficient drives perception.
 
-use std::collections::BTreeMap;
+use std::collections::HashMap;
 
 use serde_json::{Value, json};
 
@@ -63,124 +63,138 @@ fn round9(x: f64) -> f64 {
     (x * 1e9).round() / 1e9
 }
 
-struct Answer {
-    participant: String,
-    display: String,
-    mu_s: f64,
-    mu_k: f64,
-    delta_mu: f64,
-    ln: f64,
+/// The analysed answers, column-wise with coded names.
+struct Answers {
+    participant: Vec<u32>,
+    participants: usize,
+    display: Vec<u32>,
+    display_names: Vec<String>,
+    mu_s: Vec<f64>,
+    mu_k: Vec<f64>,
+    delta_mu: Vec<f64>,
+    ln: Vec<f64>,
 }
 
-type StimulusKey = (String, u64, u64, &'static str);
-
 /// Parses and checks the rows.
-fn answers(rows: &Rows) -> Result<Vec<Answer>, AnalysisError> {
-    (0..rows.len())
-        .map(|i| {
-            let m = rows.number("magnitude", i)?;
-            if m <= 0.0 {
-                return Err(rows.error(
-                    "magnitude",
-                    i,
-                    &format!("{m} is not greater than 0 (magnitudes must be positive)"),
-                ));
-            }
-            Ok(Answer {
-                participant: rows.text("participant", i).to_owned(),
-                display: rows.text("display", i).to_owned(),
-                mu_s: rows.number("mu_s", i)?,
-                mu_k: rows.number("mu_k", i)?,
-                delta_mu: round9(rows.number("delta_mu", i)?),
-                ln: m.ln(),
-            })
-        })
-        .collect()
+fn answers(rows: &Rows) -> Result<Answers, AnalysisError> {
+    let magnitude = rows.numbers("magnitude")?;
+    if let Some(bad) = magnitude.iter().find(|m| **m <= 0.0) {
+        let i = magnitude.iter().position(|m| m == bad).unwrap_or(0);
+        return Err(rows.error(
+            "magnitude",
+            i,
+            &format!("{bad} is not greater than 0 (magnitudes must be positive)"),
+        ));
+    }
+    let (participant, names) = rows.codes("participant");
+    let (display, display_names) = rows.codes("display");
+    Ok(Answers {
+        participant,
+        participants: names.len(),
+        display,
+        display_names,
+        mu_s: rows.numbers("mu_s")?,
+        mu_k: rows.numbers("mu_k")?,
+        delta_mu: rows.numbers("delta_mu")?.into_iter().map(round9).collect(),
+        ln: magnitude.iter().map(|m| m.ln()).collect(),
+    })
 }
 
 /// Displays in protocol order, then any others alphabetically.
-fn display_list(answers: &[Answer], order: &[String]) -> Vec<String> {
+fn display_list(a: &Answers, order: &[String]) -> Vec<String> {
     let mut displays: Vec<String> = order
         .iter()
-        .filter(|d| answers.iter().any(|a| &a.display == *d))
+        .filter(|d| a.display_names.contains(d))
         .cloned()
         .collect();
-    let mut rest: Vec<String> = answers
+    let mut rest: Vec<String> = a
+        .display_names
         .iter()
-        .map(|a| a.display.clone())
         .filter(|d| !displays.contains(d))
+        .cloned()
         .collect();
     rest.sort();
-    rest.dedup();
     displays.extend(rest);
     displays
 }
 
 /// Both normalizations' geometric means per stimulus, sorted by display
-/// order, normalization, delta_mu, mu_s; and the number of participants.
-fn normalized_means(answers: &[Answer], displays: &[String]) -> (Vec<GeoMean>, usize) {
-    // Mean logs: per participant (""), per participant x display, per display ("").
-    let mut sums: BTreeMap<(&str, &str), (f64, f64)> = BTreeMap::new();
-    for a in answers {
-        for key in [
-            (a.participant.as_str(), ""),
-            (a.participant.as_str(), a.display.as_str()),
-            ("", a.display.as_str()),
-        ] {
-            let e = sums.entry(key).or_insert((0.0, 0.0));
-            e.0 += a.ln;
-            e.1 += 1.0;
-        }
+/// order, normalization, delta_mu, mu_s.
+fn normalized_means(a: &Answers, displays: &[String]) -> Vec<GeoMean> {
+    let (np, nd) = (a.participants, a.display_names.len());
+    // Sums and counts of logs: per participant, per participant x display,
+    // per display.
+    let (mut p_sum, mut p_n) = (vec![0.0; np], vec![0.0; np]);
+    let (mut pd_sum, mut pd_n) = (vec![0.0; np * nd], vec![0.0; np * nd]);
+    let (mut d_sum, mut d_n) = (vec![0.0; nd], vec![0.0; nd]);
+    for i in 0..a.ln.len() {
+        let (p, d) = (a.participant[i] as usize, a.display[i] as usize);
+        p_sum[p] += a.ln[i];
+        p_n[p] += 1.0;
+        pd_sum[p * nd + d] += a.ln[i];
+        pd_n[p * nd + d] += 1.0;
+        d_sum[d] += a.ln[i];
+        d_n[d] += 1.0;
     }
-    let avg = |key: (&str, &str)| sums.get(&key).map_or(0.0, |(s, n)| s / n);
-    let grand = answers.iter().map(|a| a.ln).sum::<f64>() / answers.len().max(1) as f64;
-    let mut groups: BTreeMap<StimulusKey, (f64, f64, f64, Vec<f64>)> = BTreeMap::new();
-    for a in answers {
-        let pooled = a.ln + grand - avg((&a.participant, ""));
-        let per_display = a.ln + avg(("", &a.display)) - avg((&a.participant, &a.display));
-        for (norm, ln) in [("pooled", pooled), ("per_display", per_display)] {
-            groups
-                .entry((a.display.clone(), a.mu_s.to_bits(), a.mu_k.to_bits(), norm))
-                .or_insert((a.mu_s, a.mu_k, a.delta_mu, Vec::new()))
-                .3
-                .push(ln);
-        }
+    let grand = a.ln.iter().sum::<f64>() / a.ln.len().max(1) as f64;
+    // Per stimulus: (mu_s, mu_k, delta_mu, sum pooled, sum per_display, n).
+    let mut stimuli: HashMap<(u32, u64, u64), usize> = HashMap::new();
+    let mut acc: Vec<(u32, f64, f64, f64, f64, f64, usize)> = Vec::new();
+    for i in 0..a.ln.len() {
+        let (p, d) = (a.participant[i] as usize, a.display[i] as usize);
+        let pooled = a.ln[i] + grand - p_sum[p] / p_n[p];
+        let per_display = a.ln[i] + d_sum[d] / d_n[d] - pd_sum[p * nd + d] / pd_n[p * nd + d];
+        let k = *stimuli
+            .entry((a.display[i], a.mu_s[i].to_bits(), a.mu_k[i].to_bits()))
+            .or_insert_with(|| {
+                acc.push((
+                    a.display[i],
+                    a.mu_s[i],
+                    a.mu_k[i],
+                    a.delta_mu[i],
+                    0.0,
+                    0.0,
+                    0,
+                ));
+                acc.len() - 1
+            });
+        acc[k].4 += pooled;
+        acc[k].5 += per_display;
+        acc[k].6 += 1;
     }
-    let mut means: Vec<GeoMean> = groups
-        .into_iter()
-        .map(
-            |((display, _, _, normalization), (mu_s, mu_k, delta_mu, lns))| GeoMean {
-                display,
+    let mut means: Vec<GeoMean> = Vec::with_capacity(2 * acc.len());
+    for (d, mu_s, mu_k, delta_mu, pooled, per_display, n) in acc {
+        for (normalization, sum) in [("pooled", pooled), ("per_display", per_display)] {
+            means.push(GeoMean {
+                display: a.display_names[d as usize].clone(),
                 mu_s,
                 mu_k,
                 delta_mu,
                 normalization,
-                n: lns.len(),
-                value: (lns.iter().sum::<f64>() / lns.len() as f64).exp(),
-            },
-        )
-        .collect();
+                value: (sum / n as f64).exp(),
+                n,
+            });
+        }
+    }
     let rank = |d: &str| displays.iter().position(|x| x == d).unwrap_or(usize::MAX);
-    means.sort_by(|a, b| {
+    means.sort_by(|x, y| {
         (
-            rank(&a.display),
-            a.normalization != "pooled",
-            a.delta_mu,
-            a.mu_s,
+            rank(&x.display),
+            x.normalization != "pooled",
+            x.delta_mu,
+            x.mu_s,
+            x.mu_k,
         )
             .partial_cmp(&(
-                rank(&b.display),
-                b.normalization != "pooled",
-                b.delta_mu,
-                b.mu_s,
+                rank(&y.display),
+                y.normalization != "pooled",
+                y.delta_mu,
+                y.mu_s,
+                y.mu_k,
             ))
             .unwrap_or(std::cmp::Ordering::Equal)
     });
-    let participants = sums
-        .keys()
-        .filter(|(p, d)| d.is_empty() && !p.is_empty())
-        .count();
-    (means, participants)
+    means
 }
 
 /// Per delta_mu series: Pearson r between the two displays' per_display
@@ -273,15 +287,16 @@ fn columns(names: &[&str]) -> Vec<String> {
 pub fn analyze(rows: &Rows, order: &[String]) -> Result<Magnitude, AnalysisError> {
     let answers = answers(rows)?;
     let mut notes = Vec::new();
-    if answers.is_empty() {
+    if answers.ln.is_empty() {
         notes.push("magnitude_estimation: no completed trials".to_owned());
     }
     let displays = display_list(&answers, order);
-    let (means, participants) = normalized_means(&answers, &displays);
+    let means = normalized_means(&answers, &displays);
+    let participants = answers.participants;
     let (correlations, corr_rows) = if displays.len() == 2 {
         correlations(&means, &displays, &mut notes)
     } else {
-        if !answers.is_empty() {
+        if !answers.ln.is_empty() {
             notes.push(format!(
                 "magnitude_estimation.correlations and display_ratio: n/a: {} display(s) ({}); two are needed",
                 displays.len(),

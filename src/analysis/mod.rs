@@ -166,36 +166,79 @@ pub struct Analysis {
     pub html: String,
 }
 
-/// The data rows of one kind: column name -> values (text), plus where each
-/// row came from.
+/// The data rows of one kind, as read by polars (all columns text), and the
+/// files they came from (to locate a bad value on the error path).
 #[derive(Debug, Clone, Default)]
 pub struct Rows {
-    /// Columns by name.
-    pub columns: BTreeMap<String, Vec<String>>,
-    /// Source file of each row.
-    pub files: Vec<String>,
+    frame: DataFrame,
+    files: Vec<PathBuf>,
 }
 
 impl Rows {
     /// Number of rows.
     #[must_use]
     pub fn len(&self) -> usize {
-        self.files.len()
+        self.frame.height()
     }
 
     /// Whether there are no rows.
     #[must_use]
     pub fn is_empty(&self) -> bool {
-        self.files.is_empty()
+        self.frame.height() == 0
+    }
+
+    fn column(&self, column: &str) -> Option<&StringChunked> {
+        self.frame.column(column).ok().and_then(|c| c.str().ok())
     }
 
     /// The text of `column` at `row`.
     #[must_use]
     pub fn text(&self, column: &str, row: usize) -> &str {
-        self.columns
-            .get(column)
-            .and_then(|c| c.get(row))
-            .map_or("", String::as_str)
+        self.column(column).and_then(|c| c.get(row)).unwrap_or("")
+    }
+
+    /// Every value of `column` as a number.
+    ///
+    /// # Errors
+    /// The first value that is not a finite number, with its file and line.
+    pub fn numbers(&self, column: &str) -> Result<Vec<f64>, AnalysisError> {
+        let Some(c) = self.column(column) else {
+            return Ok(Vec::new());
+        };
+        let mut out = Vec::with_capacity(c.len());
+        for v in c.iter() {
+            match v.unwrap_or("").trim().parse::<f64>() {
+                Ok(x) if x.is_finite() => out.push(x),
+                _ => {
+                    let t = v.unwrap_or("");
+                    return Err(self.error_at(column, t, &format!("'{t}' is not a finite number")));
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// Every value of `column` as a small integer code, with the distinct
+    /// values in order of first appearance.
+    #[must_use]
+    pub fn codes(&self, column: &str) -> (Vec<u32>, Vec<String>) {
+        let mut names: Vec<String> = Vec::new();
+        let mut index: std::collections::HashMap<&str, u32> = std::collections::HashMap::new();
+        let codes = self
+            .column(column)
+            .map(|c| {
+                c.iter()
+                    .map(|v| {
+                        let v = v.unwrap_or("");
+                        *index.entry(v).or_insert_with(|| {
+                            names.push(v.to_owned());
+                            u32::try_from(names.len() - 1).unwrap_or(u32::MAX)
+                        })
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        (codes, names)
     }
 
     /// `column` at `row` as a number, with the file and line on error.
@@ -243,35 +286,45 @@ impl Rows {
             .collect()
     }
 
-    /// An error at the line of `row` in its file (found by reading the file;
-    /// only on this error path).
+    /// An error about the value of `column` at `row`.
     #[must_use]
     pub fn error(&self, column: &str, row: usize, message: &str) -> AnalysisError {
-        let file = self.files.get(row).cloned().unwrap_or_default();
-        let trial = self.text("trial", row).to_owned();
-        let participant = self.text("participant", row).to_owned();
-        let place = locate(&file, column, &participant, &trial)
-            .map_or(file.clone(), |(l, c)| format!("{file}: {l}:{c}"));
+        self.error_at(column, self.text(column, row), message)
+    }
+
+    /// An error placed at the first analysed row (completed, non-practice)
+    /// whose `column` holds `value`; found by reading the files again, only
+    /// on this error path.
+    fn error_at(&self, column: &str, value: &str, message: &str) -> AnalysisError {
+        for file in &self.files {
+            if let Some((line, col)) = locate(file, column, value) {
+                return AnalysisError::new(
+                    format!("{}: {line}:{col}", file.display()),
+                    format!("{column}: {message}"),
+                );
+            }
+        }
+        let place = self
+            .files
+            .first()
+            .map(|f| f.display().to_string())
+            .unwrap_or_default();
         AnalysisError::new(place, format!("{column}: {message}"))
     }
 }
 
-/// Line and column (1-based) of `column` in the row of `participant` and
-/// `trial` of a data CSV.
-fn locate(file: &str, column: &str, participant: &str, trial: &str) -> Option<(usize, usize)> {
+/// Line and column (1-based) of the first analysed row of a data CSV whose
+/// `column` holds `value`.
+fn locate(file: &Path, column: &str, value: &str) -> Option<(usize, usize)> {
     let text = std::fs::read_to_string(file).ok()?;
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next()?.split(',').collect();
-    let col = header.iter().position(|h| *h == column)?;
-    let (pcol, tcol) = (
-        header.iter().position(|h| *h == "participant")?,
-        header.iter().position(|h| *h == "trial")?,
-    );
+    let at = |name: &str| header.iter().position(|h| *h == name);
+    let (col, status, practice) = (at(column)?, at("status")?, at("practice")?);
     for (i, line) in lines.enumerate() {
         let cells = split_csv(line);
-        if cells.get(pcol).map(String::as_str) == Some(participant)
-            && cells.get(tcol).map(String::as_str) == Some(trial)
-        {
+        let cell = |j: usize| cells.get(j).map_or("", String::as_str);
+        if cell(status) == "completed" && cell(practice) == "false" && cell(col) == value {
             let offset: usize = line.split(',').take(col).map(|c| c.len() + 1).sum();
             return Some((i + 2, offset + 1));
         }
@@ -395,11 +448,8 @@ fn scan(paths: &[PathBuf], columns: &[&str]) -> Result<Rows, AnalysisError> {
         .iter()
         .map(|p| PlRefPath::from(p.to_string_lossy().as_ref()))
         .collect();
-    let mut select: Vec<Expr> = columns.iter().map(|c| col(*c)).collect();
-    select.push(col("__file"));
     let frame = LazyCsvReader::new_paths(sources.into())
         .with_infer_schema_length(Some(0))
-        .with_include_file_paths(Some("__file".into()))
         .finish()
         .map_err(fail)?
         .filter(
@@ -407,22 +457,13 @@ fn scan(paths: &[PathBuf], columns: &[&str]) -> Result<Rows, AnalysisError> {
                 .eq(lit("completed"))
                 .and(col("practice").eq(lit("false"))),
         )
-        .select(select)
+        .select(columns.iter().map(|c| col(*c)).collect::<Vec<_>>())
         .collect()
         .map_err(fail)?;
-    let text_column = |name: &str| -> Result<Vec<String>, AnalysisError> {
-        let c = frame.column(name).map_err(fail)?;
-        let s = c.str().map_err(fail)?;
-        Ok(s.iter().map(|v| v.unwrap_or_default().to_owned()).collect())
-    };
-    let mut rows = Rows {
-        files: text_column("__file")?,
-        ..Rows::default()
-    };
-    for c in columns {
-        rows.columns.insert((*c).to_owned(), text_column(c)?);
-    }
-    Ok(rows)
+    Ok(Rows {
+        frame,
+        files: paths.to_vec(),
+    })
 }
 
 /// Runs every analysis the folder's data allows.
@@ -460,16 +501,25 @@ pub fn analyze(dir: &Path) -> Result<Analysis, AnalysisError> {
     let rows: BTreeMap<&str, usize> = data.iter().map(|(k, v)| (*k, v.len())).collect();
     summary.insert(
         "inputs".into(),
-        json!({"folder": dir.display().to_string(), "analysed_rows": rows, "rule": "completed, non-practice trials"}),
+        json!({"folder": folder_name(dir), "analysed_rows": rows, "rule": "completed, non-practice trials"}),
     );
     summary.insert("notes".into(), json!(notes));
     let summary = Value::Object(summary);
-    let html = report::page(dir, &summary, &sections, &notes);
+    let html = report::page(&folder_name(dir), &summary, &sections, &notes);
     Ok(Analysis {
         summary,
         tables,
         html,
     })
+}
+
+/// The folder's own name (not its full path, so a report does not depend on
+/// where it was made).
+fn folder_name(dir: &Path) -> String {
+    dir.file_name().map_or_else(
+        || dir.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
 }
 
 /// Display order for magnitude estimation: the protocol's set order, from the

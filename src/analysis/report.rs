@@ -4,7 +4,6 @@
 //! lines.
 
 use std::fmt::Write as _;
-use std::path::Path;
 
 use plotters::prelude::*;
 use serde_json::Value;
@@ -367,7 +366,7 @@ pub fn fitts_section(f: &Fitts) -> String {
 
 /// The whole page.
 #[must_use]
-pub fn page(dir: &Path, summary: &Value, sections: &[String], notes: &[String]) -> String {
+pub fn page(folder: &str, summary: &Value, sections: &[String], notes: &[String]) -> String {
     let mut s = String::from(
         "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>frictionlab report</title><style>\
          body{font-family:sans-serif;margin:2em;max-width:1500px;color:#222}\
@@ -379,7 +378,7 @@ pub fn page(dir: &Path, summary: &Value, sections: &[String], notes: &[String]) 
         s,
         "<h1>frictionlab analysis</h1><p>Results folder: <code>{}</code>. Analysed rows (completed, non-practice): <code>{}</code>. \
          frictionlab {}.</p>",
-        esc(&dir.display().to_string()),
+        esc(folder),
         esc(&summary["inputs"]["analysed_rows"].to_string()),
         env!("CARGO_PKG_VERSION")
     );

@@ -1,0 +1,90 @@
+//! The committed study reproductions in `analysis/` match a fresh simulated
+//! replay (the same command as `analysis/reproduce.sh`, run in-process).
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    reason = "a failed unwrap is a failed test"
+)]
+
+use frictionlab::analysis::analyze;
+use frictionlab::cli::participant_seed;
+use frictionlab::protocol::load::parse;
+use frictionlab::results::ResultsDir;
+use frictionlab::runner::{SessionRequest, run_simulated};
+use serde_json::Value;
+
+/// Numbers equal to 1e-9 relative; everything else equal.
+fn same(a: &Value, b: &Value, path: &str) -> Result<(), String> {
+    match (a, b) {
+        (Value::Number(x), Value::Number(y)) => {
+            let (x, y) = (x.as_f64().unwrap(), y.as_f64().unwrap());
+            if (x - y).abs() <= 1e-9 * x.abs().max(y.abs()).max(1e-300) {
+                Ok(())
+            } else {
+                Err(format!("{path}: {x} vs {y}"))
+            }
+        }
+        (Value::Array(x), Value::Array(y)) if x.len() == y.len() => x
+            .iter()
+            .zip(y)
+            .enumerate()
+            .try_for_each(|(i, (x, y))| same(x, y, &format!("{path}[{i}]"))),
+        (Value::Object(x), Value::Object(y)) if x.len() == y.len() => {
+            x.iter().try_for_each(|(k, v)| {
+                y.get(k)
+                    .ok_or_else(|| format!("{path}.{k}: missing"))
+                    .and_then(|w| same(v, w, &format!("{path}.{k}")))
+            })
+        }
+        _ if a == b => Ok(()),
+        _ => Err(format!("{path}: {a} vs {b}")),
+    }
+}
+
+fn check(study: &str, participants: u32, seed: u64) {
+    let root = env!("CARGO_MANIFEST_DIR");
+    let text = std::fs::read_to_string(format!("{root}/protocols/{study}.json")).unwrap();
+    let protocol = parse(&text).unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("results");
+    let dir = ResultsDir::new(&out);
+    for i in 0..participants {
+        let id = format!("sim-{:03}", i + 1);
+        let req = SessionRequest {
+            protocol: &protocol,
+            protocol_bytes: text.as_bytes(),
+            participant: &id,
+            participant_index: Some(i),
+            seed: participant_seed(seed, i),
+            resume: false,
+            pace: None,
+        };
+        run_simulated(&dir, &req, &mut |_, _| {}).unwrap();
+    }
+    let fresh = analyze(&out).unwrap().summary;
+    let committed: Value = serde_json::from_str(
+        &std::fs::read_to_string(format!("{root}/analysis/{study}/summary.json")).unwrap(),
+    )
+    .unwrap();
+    if let Err(e) = same(&fresh, &committed, study) {
+        panic!(
+            "analysis/{study}/summary.json is out of date ({e}); regenerate with: bash analysis/reproduce.sh"
+        );
+    }
+    assert!(std::path::Path::new(&format!("{root}/analysis/{study}/report.html")).is_file());
+}
+
+#[test]
+fn paired_comparison_reproduction_is_in_sync() {
+    check("paired-comparison", 6, 2000);
+}
+
+#[test]
+fn magnitude_estimation_reproduction_is_in_sync() {
+    check("magnitude-estimation", 10, 2001);
+}
+
+#[test]
+fn fitts_reproduction_is_in_sync() {
+    check("fitts", 20, 2002);
+}
