@@ -8,10 +8,9 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use frictionlab::cli::participant_seed;
 use frictionlab::protocol::load::parse;
 use frictionlab::results::ResultsDir;
-use frictionlab::runner::{SessionRequest, run_simulated};
+use frictionlab::runner::simulate_participants;
 
 /// Runs the study into a fresh folder under `root`; returns simulated seconds.
 fn study(text: &str, root: &std::path::Path) -> f64 {
@@ -21,22 +20,16 @@ fn study(text: &str, root: &std::path::Path) -> f64 {
     let Ok(dir) = tempfile::tempdir_in(root) else {
         return 0.0;
     };
-    let results = ResultsDir::new(dir.path());
-    (0..10)
-        .map(|i| {
-            let id = format!("sim-{i:03}");
-            let req = SessionRequest {
-                protocol: &protocol,
-                protocol_bytes: text.as_bytes(),
-                participant: &id,
-                participant_index: Some(i),
-                seed: participant_seed(1, i),
-                resume: false,
-                pace: None,
-            };
-            run_simulated(&results, &req, &mut |_, _| {}).map_or(0.0, |o| o.simulated_s)
-        })
-        .sum()
+    simulate_participants(
+        &ResultsDir::new(dir.path()),
+        &protocol,
+        text.as_bytes(),
+        10,
+        1,
+        None,
+        &mut |_| {},
+    )
+    .map_or(0.0, |outcomes| outcomes.iter().map(|o| o.simulated_s).sum())
 }
 
 fn simulate(c: &mut Criterion) {

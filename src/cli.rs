@@ -387,20 +387,6 @@ fn run_command(args: &RunArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-/// Plan seed of simulated participant `i` of a study seeded with `seed`
-/// (`SplitMix64` of the pair, so seeds of neighbouring participants differ).
-#[must_use]
-pub fn participant_seed(seed: u64, i: u32) -> u64 {
-    let mut z = seed.wrapping_add(
-        u64::from(i)
-            .wrapping_add(1)
-            .wrapping_mul(0x9e37_79b9_7f4a_7c15),
-    );
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
-
 fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
     let mut errors = Vec::new();
     if args.participants == 0 {
@@ -429,26 +415,19 @@ fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
         .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     let wall = std::time::Instant::now();
-    let (mut simulated, mut trials) = (0.0, 0);
-    for i in 0..args.participants {
-        let id = format!("sim-{:03}", i + 1);
-        bar.set_message(id.clone());
-        let req = runner::SessionRequest {
-            protocol: &protocol,
-            protocol_bytes: &bytes,
-            participant: &id,
-            participant_index: Some(i),
-            seed: participant_seed(args.seed, i),
-            resume: false,
-            pace: args.pace,
-        };
-        let before = bar.position();
-        let outcome = runner::run_simulated(&dir, &req, &mut |done, _| {
-            bar.set_position(before + done as u64);
-        })?;
-        simulated += outcome.simulated_s;
-        trials += outcome.completed + outcome.aborted;
-    }
+    let outcomes = runner::simulate_participants(
+        &dir,
+        &protocol,
+        &bytes,
+        args.participants,
+        args.seed,
+        args.pace,
+        &mut |done| {
+            bar.set_position(done as u64);
+        },
+    )?;
+    let simulated: f64 = outcomes.iter().map(|o| o.simulated_s).sum();
+    let trials: usize = outcomes.iter().map(|o| o.completed + o.aborted).sum();
     bar.finish_and_clear();
     let elapsed = wall.elapsed().as_secs_f64();
     println!(

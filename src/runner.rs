@@ -306,3 +306,53 @@ pub fn run_simulated(
         }
     }
 }
+
+/// Plan seed of simulated participant `i` of a study seeded with `seed`
+/// (`SplitMix64` of the pair, so seeds of neighbouring participants differ).
+#[must_use]
+pub fn participant_seed(seed: u64, i: u32) -> u64 {
+    let mut z = seed.wrapping_add(
+        u64::from(i)
+            .wrapping_add(1)
+            .wrapping_mul(0x9e37_79b9_7f4a_7c15),
+    );
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// Runs `participants` whole sessions with simulated participants `sim-001`,
+/// `sim-002`, ... (participant index i, plan seed [`participant_seed`]).
+/// `progress(trials done in all sessions)` is called after each trial.
+///
+/// # Errors
+/// As [`run_simulated`].
+pub fn simulate_participants(
+    dir: &ResultsDir,
+    protocol: &Protocol,
+    protocol_bytes: &[u8],
+    participants: u32,
+    seed: u64,
+    pace: Option<f64>,
+    progress: &mut dyn FnMut(usize),
+) -> Result<Vec<SessionOutcome>, ResultsError> {
+    let mut done = 0;
+    (0..participants)
+        .map(|i| {
+            let id = format!("sim-{:03}", i + 1);
+            let req = SessionRequest {
+                protocol,
+                protocol_bytes,
+                participant: &id,
+                participant_index: Some(i),
+                seed: participant_seed(seed, i),
+                resume: false,
+                pace,
+            };
+            let before = done;
+            let outcome = run_simulated(dir, &req, &mut |trial, _| progress(before + trial))?;
+            done += outcome.completed + outcome.aborted;
+            Ok(outcome)
+        })
+        .collect()
+}

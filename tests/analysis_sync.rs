@@ -7,10 +7,9 @@
 )]
 
 use frictionlab::analysis::analyze;
-use frictionlab::cli::participant_seed;
 use frictionlab::protocol::load::parse;
 use frictionlab::results::ResultsDir;
-use frictionlab::runner::{SessionRequest, run_simulated};
+use frictionlab::runner::simulate_participants;
 use serde_json::Value;
 
 /// Numbers equal to 1e-9 relative; everything else equal.
@@ -47,20 +46,16 @@ fn check(study: &str, participants: u32, seed: u64) {
     let protocol = parse(&text).unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("results");
-    let dir = ResultsDir::new(&out);
-    for i in 0..participants {
-        let id = format!("sim-{:03}", i + 1);
-        let req = SessionRequest {
-            protocol: &protocol,
-            protocol_bytes: text.as_bytes(),
-            participant: &id,
-            participant_index: Some(i),
-            seed: participant_seed(seed, i),
-            resume: false,
-            pace: None,
-        };
-        run_simulated(&dir, &req, &mut |_, _| {}).unwrap();
-    }
+    simulate_participants(
+        &ResultsDir::new(&out),
+        &protocol,
+        text.as_bytes(),
+        participants,
+        seed,
+        None,
+        &mut |_| {},
+    )
+    .unwrap();
     let fresh = analyze(&out).unwrap().summary;
     let committed: Value = serde_json::from_str(
         &std::fs::read_to_string(format!("{root}/analysis/{study}/summary.json")).unwrap(),

@@ -16,10 +16,9 @@
 
 use std::collections::BTreeMap;
 
-use frictionlab::cli::participant_seed;
 use frictionlab::protocol::load::parse;
 use frictionlab::results::ResultsDir;
-use frictionlab::runner::{SessionRequest, run_simulated};
+use frictionlab::runner::simulate_participants;
 use serde_json::{Value, json};
 
 type Row = BTreeMap<String, String>;
@@ -37,20 +36,18 @@ fn simulate(name: &str, n: u32, seed: u64, edit: impl FnOnce(&mut Value)) -> Vec
     let text = v.to_string();
     let protocol = parse(&text).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let results = ResultsDir::new(dir.path());
+    let outcomes = simulate_participants(
+        &ResultsDir::new(dir.path()),
+        &protocol,
+        text.as_bytes(),
+        n,
+        seed,
+        None,
+        &mut |_| {},
+    )
+    .unwrap();
     let mut rows = Vec::new();
-    for i in 0..n {
-        let id = format!("sim-{i}");
-        let req = SessionRequest {
-            protocol: &protocol,
-            protocol_bytes: text.as_bytes(),
-            participant: &id,
-            participant_index: Some(i),
-            seed: participant_seed(seed, i),
-            resume: false,
-            pace: None,
-        };
-        let outcome = run_simulated(&results, &req, &mut |_, _| {}).unwrap();
+    for outcome in outcomes {
         let csv = std::fs::read_to_string(outcome.csv).unwrap();
         let mut lines = csv.lines();
         let header: Vec<&str> = lines.next().unwrap().split(',').collect();
@@ -112,7 +109,9 @@ fn magnitude_rises_with_mu_s_on_both_displays() {
         for p in 0..6 {
             let own: Vec<(f64, f64)> = rows
                 .iter()
-                .filter(|r| r["display"] == display && r["participant"] == format!("sim-{p}"))
+                .filter(|r| {
+                    r["display"] == display && r["participant"] == format!("sim-{:03}", p + 1)
+                })
                 .map(|r| (num(r, "mu_s"), num(r, "magnitude").ln()))
                 .collect();
             positive += usize::from(pearson(&own) > 0.0);
@@ -171,7 +170,9 @@ fn high_stiction_degrades_fitts_performance_for_most_participants() {
         let mean = |cond: &str, k: &str| {
             let v: Vec<f64> = rows
                 .iter()
-                .filter(|r| r["participant"] == format!("sim-{p}") && r["condition"] == cond)
+                .filter(|r| {
+                    r["participant"] == format!("sim-{:03}", p + 1) && r["condition"] == cond
+                })
                 .map(|r| num(r, k))
                 .collect();
             v.iter().sum::<f64>() / v.len() as f64
