@@ -48,6 +48,14 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Lists serial ports.
+    Ports,
+    /// Runs an emulated device (the simulated apparatus) on a serial port,
+    /// or on a new pseudo-terminal linked at PATH if PATH does not exist.
+    DeviceEmulator {
+        /// A serial port, or where to link a new pseudo-terminal.
+        path: PathBuf,
+    },
     /// Prints a JSON Schema: of protocol files, or of session log lines.
     Schema {
         /// `protocol` or `log`.
@@ -175,6 +183,8 @@ pub fn main() -> ExitCode {
         Command::Run(args) => run_command(&args),
         Command::Simulate(args) => simulate_command(&args),
         Command::Analyze { dir, out } => analyze_command(&dir, out.as_deref()),
+        Command::Ports => ports_command(),
+        Command::DeviceEmulator { path } => emulator_command(&path),
         Command::Schema { which } => {
             if which == "log" {
                 print!("{}", crate::results::log_json_schema());
@@ -297,6 +307,78 @@ fn analyze_command(dir: &Path, out: Option<&Path>) -> Result<(), Failure> {
         analysis.tables.len()
     );
     Ok(())
+}
+
+/// Exit code for a device problem the command could not ride out.
+pub const EXIT_DEVICE: u8 = 3;
+
+fn device_failure(place: &str, message: impl Into<String>) -> Failure {
+    Failure {
+        code: EXIT_DEVICE,
+        errors: vec![UserError::new(place, message)],
+    }
+}
+
+fn ports_command() -> Result<(), Failure> {
+    let ports =
+        serialport::available_ports().map_err(|e| device_failure("ports", e.to_string()))?;
+    if ports.is_empty() {
+        println!("no serial ports found");
+    }
+    for p in ports {
+        let kind = match p.port_type {
+            serialport::SerialPortType::UsbPort(u) => {
+                format!(
+                    "usb {:04x}:{:04x} {}",
+                    u.vid,
+                    u.pid,
+                    u.product.unwrap_or_default()
+                )
+            }
+            serialport::SerialPortType::PciPort => "pci".into(),
+            serialport::SerialPortType::BluetoothPort => "bluetooth".into(),
+            serialport::SerialPortType::Unknown => "unknown".into(),
+        };
+        println!("{}\t{kind}", p.port_name);
+    }
+    Ok(())
+}
+
+fn emulator_command(path: &Path) -> Result<(), Failure> {
+    use std::io::Write as _;
+    let place = path.display().to_string();
+    // A link left by an earlier emulator is replaced.
+    if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
+        std::fs::remove_file(path).map_err(|e| device_failure(&place, e.to_string()))?;
+    }
+    let result = if path.exists() {
+        let mut port = serialport::new(path.to_string_lossy(), crate::device::transport::BAUD)
+            .timeout(std::time::Duration::from_millis(1))
+            .open()
+            .map_err(|e| device_failure(&place, format!("cannot open: {e}")))?;
+        println!("device emulator on {}", path.display());
+        let _ = std::io::stdout().flush();
+        crate::device::emulator::serve(&mut port, |_| {})
+    } else {
+        let (mut master, slave) = serialport::TTYPort::pair()
+            .map_err(|e| device_failure(&place, format!("cannot create a pseudo-terminal: {e}")))?;
+        let slave_name = serialport::SerialPort::name(&slave).unwrap_or_default();
+        std::os::unix::fs::symlink(&slave_name, path)
+            .map_err(|e| device_failure(&place, format!("cannot link: {e}")))?;
+        let _ =
+            serialport::SerialPort::set_timeout(&mut master, std::time::Duration::from_millis(1));
+        println!(
+            "device emulator on {} (pseudo-terminal {slave_name})",
+            path.display()
+        );
+        let _ = std::io::stdout().flush();
+        // Keep the slave end open: a pseudo-terminal's master reads fail once
+        // every slave handle is closed.
+        let result = crate::device::emulator::serve(&mut master, |_| {});
+        drop(slave);
+        result
+    };
+    result.map_err(|e| device_failure(&place, e.to_string()))
 }
 
 /// This process's peak resident memory, MiB (Linux: `VmHWM`).

@@ -1,8 +1,14 @@
 //! Haptic devices. [`sim`] is the simulated apparatus of seed 002, stepped in
-//! virtual time; a real device on a serial port comes with the device-link
-//! work.
+//! virtual time. [`wire`] is the serial wire protocol (frames, sans-IO
+//! decoder), [`link`] its host side (sans-IO), [`transport`] the serial port
+//! that carries it, and [`emulator`] firmware for the simulated apparatus
+//! that speaks it.
 
+pub mod emulator;
+pub mod link;
 pub mod sim;
+pub mod transport;
+pub mod wire;
 
 /// What a device reports each loop tick.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

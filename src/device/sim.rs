@@ -134,9 +134,44 @@ impl SimDevice {
         (x / self.p.encoder_m).round() * self.p.encoder_m
     }
 
-    /// Advances by `dt` with the hand pushing with `hand_force_n`.
+    /// Advances by `dt` with the hand pushing with `hand_force_n`; the
+    /// rendered force comes from the model set by [`SimDevice::set_model`].
     pub fn step(&mut self, dt: f64, hand_force_n: f64) -> DeviceSample {
-        // Sense.
+        let sensed = self.sense(dt);
+        let out = self.rendered.as_mut().map(|f| f.step(dt, sensed));
+        let rendered = out.map_or(0.0, |o| o.force_n);
+        self.advance(dt, hand_force_n, rendered);
+        DeviceSample {
+            x_m: sensed.x_m,
+            v_m_s: sensed.v_m_s,
+            force_n: rendered,
+            vibration: out.map_or(0.0, |o| o.vibration),
+        }
+    }
+
+    /// Advances by `dt` with the hand pushing with `hand_force_n` and the
+    /// motor applying `force_n` (already limited by the caller), as a device
+    /// driven by a host does.
+    pub fn step_commanded(&mut self, dt: f64, hand_force_n: f64, force_n: f64) -> DeviceSample {
+        let sensed = self.sense(dt);
+        let force = if force_n.is_finite() { force_n } else { 0.0 };
+        self.advance(dt, hand_force_n, force);
+        DeviceSample {
+            x_m: sensed.x_m,
+            v_m_s: sensed.v_m_s,
+            force_n: force,
+            vibration: 0.0,
+        }
+    }
+
+    /// Whether the device is at an end of its range.
+    #[must_use]
+    pub fn at_end_stop(&self) -> bool {
+        self.x.abs() >= self.p.range_m / 2.0
+    }
+
+    /// Measured position and estimated velocity.
+    fn sense(&mut self, dt: f64) -> Input {
         let measured = self.quantize(self.x);
         let raw_v = (measured - self.x_measured) / dt;
         if self.filter.0 != dt {
@@ -148,13 +183,15 @@ impl SimDevice {
         let alpha = self.filter.1;
         self.v_estimate = alpha * self.v_estimate + (1.0 - alpha) * raw_v;
         self.x_measured = measured;
-        let sensed = Input {
+        Input {
             x_m: measured,
             v_m_s: self.v_estimate,
-        };
-        // Render.
-        let out = self.rendered.as_mut().map(|f| f.step(dt, sensed));
-        let rendered = out.map_or(0.0, |o| o.force_n);
+        }
+    }
+
+    /// Moves the device under the hand, the motor force, the physical
+    /// friction, the end stops and the apparatus's own friction.
+    fn advance(&mut self, dt: f64, hand_force_n: f64, motor_n: f64) {
         let physical = self.physical.as_mut().map_or(0.0, |f| {
             f.step(
                 dt,
@@ -177,8 +214,7 @@ impl SimDevice {
         } else {
             0.0
         };
-        let net = hand + rendered + physical + stop;
-        // Apparatus friction with stiction, then move.
+        let net = hand + motor_n + physical + stop;
         let fs = self.p.static_friction_n;
         if self.stuck && net.abs() > fs {
             self.stuck = false;
@@ -198,11 +234,5 @@ impl SimDevice {
             }
         }
         self.x += self.v * dt;
-        DeviceSample {
-            x_m: measured,
-            v_m_s: self.v_estimate,
-            force_n: rendered,
-            vibration: out.map_or(0.0, |o| o.vibration),
-        }
     }
 }
