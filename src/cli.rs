@@ -98,6 +98,10 @@ struct RunArgs {
     /// Counterbalancing index (default: participants already in the folder).
     #[arg(long)]
     participant_index: Option<u32>,
+    /// With a device: give up (exit 3) after it has not answered for this
+    /// long, s.
+    #[arg(long, default_value_t = 10.0)]
+    device_timeout: f64,
 }
 
 #[derive(Debug, clap::Args)]
@@ -402,12 +406,18 @@ fn check_pace(pace: f64) -> Result<(), Vec<UserError>> {
 
 fn run_command(args: &RunArgs) -> Result<(), Failure> {
     let mut errors = Vec::new();
-    if args.device != "sim" {
+    if args.device != "sim" && !Path::new(&args.device).exists() {
         errors.push(UserError::new(
             "--device",
+            format!("{}: no such serial port (frictionlab ports lists them; 'sim' is the simulated device)", args.device),
+        ));
+    }
+    if !(args.device_timeout.is_finite() && args.device_timeout > 0.0) {
+        errors.push(UserError::new(
+            "--device-timeout",
             format!(
-                "'{}': only the simulated device ('sim') is available in this version",
-                args.device
+                "must be a number greater than 0, got {}",
+                args.device_timeout
             ),
         ));
     }
@@ -445,8 +455,28 @@ fn run_command(args: &RunArgs) -> Result<(), Failure> {
         seed,
         resume: args.resume,
         pace: Some(args.pace),
+        device: &args.device,
     };
-    let outcome = runner::run_simulated(&dir, &req, &mut |_, _| {})?;
+    let outcome = if args.device == "sim" {
+        runner::run_simulated(&dir, &req, &mut |_, _| {})?
+    } else {
+        match runner::run_device(
+            &dir,
+            &req,
+            Path::new(&args.device),
+            args.device_timeout,
+            &mut |_, _| {},
+        ) {
+            Ok(o) => o,
+            Err(runner::DeviceRunError::Results(e)) => return Err(e.into()),
+            Err(e) => {
+                return Err(device_failure(
+                    &format!("--device {}", args.device),
+                    e.to_string(),
+                ));
+            }
+        }
+    };
     if outcome.torn_bytes > 0 {
         eprintln!(
             "note: {}: a torn last line ({} bytes) was ignored and cut before resuming",

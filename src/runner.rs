@@ -42,6 +42,8 @@ pub struct SessionRequest<'a> {
     /// Virtual time runs this many times faster than real time; `None`: as
     /// fast as possible.
     pub pace: Option<f64>,
+    /// The device, as logged: `sim`, or the serial port's path.
+    pub device: &'a str,
 }
 
 /// How a session went.
@@ -139,7 +141,7 @@ fn prepare(dir: &ResultsDir, req: &SessionRequest<'_>) -> Result<Prepared, Resul
         participant: req.participant.to_owned(),
         participant_index,
         session,
-        device: "sim".into(),
+        device: req.device.to_owned(),
         responder: "sim".into(),
         planned_trials: plan.trials.len(),
     };
@@ -164,6 +166,19 @@ fn prepare(dir: &ResultsDir, req: &SessionRequest<'_>) -> Result<Prepared, Resul
         resumed_at: None,
         torn_bytes: 0,
     })
+}
+
+/// Puts a trial record on disk: appended to the log and fsync'd, then the
+/// CSV rewritten from the log. Only after this may the next trial start.
+fn write_record(
+    log: &mut SessionLog,
+    read: &mut ReadLog,
+    csv: &std::path::Path,
+    record: &crate::protocol::engine::TrialRecord,
+) -> Result<(), ResultsError> {
+    log.append(&LogLine::Trial(record.clone()))?;
+    read.trials.push(record.clone());
+    replace_file(csv, data_csv(read).as_bytes(), false)
 }
 
 /// Keeps virtual time from running ahead of `pace` x the wall clock.
@@ -194,10 +209,6 @@ impl Pacer {
 ///
 /// # Errors
 /// Bad input (resume without a session, a colliding id) or I/O.
-#[expect(
-    clippy::too_many_lines,
-    reason = "the session loop reads best in one place: actions, inputs, one tick"
-)]
 pub fn run_simulated(
     dir: &ResultsDir,
     req: &SessionRequest<'_>,
@@ -243,9 +254,7 @@ pub fn run_simulated(
                 Action::Physical(model) => device.set_physical(model.as_ref()),
                 Action::WakeAt(at) => timers.push(*at),
                 Action::Record(record) => {
-                    log.append(&LogLine::Trial(record.clone()))?;
-                    read.trials.push(record.clone());
-                    replace_file(&csv, data_csv(&read).as_bytes(), false)?;
+                    write_record(&mut log, &mut read, &csv, record)?;
                     pending.push_back(Input::Recorded);
                     progress(record.trial + 1, total);
                 }
@@ -348,6 +357,7 @@ pub fn simulate_participants(
                 seed: participant_seed(seed, i),
                 resume: false,
                 pace,
+                device: "sim",
             };
             let before = done;
             let outcome = run_simulated(dir, &req, &mut |trial, _| progress(before + trial))?;
@@ -355,4 +365,169 @@ pub fn simulate_participants(
             Ok(outcome)
         })
         .collect()
+}
+
+/// Why a device session stopped early.
+#[derive(Debug, thiserror::Error)]
+pub enum DeviceRunError {
+    /// Bad input or I/O on the results folder.
+    #[error(transparent)]
+    Results(#[from] ResultsError),
+    /// The device gave no valid frame for the timeout (exit 3). Completed
+    /// trials are in the log.
+    #[error(
+        "no answer from the device for {timeout_s} s ({completed} trials completed are in the log)"
+    )]
+    Lost {
+        /// The timeout, s.
+        timeout_s: f64,
+        /// Trials completed before.
+        completed: usize,
+    },
+    /// The loop thread could not start.
+    #[error("cannot start the haptic loop: {0}")]
+    Loop(std::io::Error),
+}
+
+/// How often the participant's hand drive is sent to the emulator, s.
+const HAND_EVERY_S: f64 = 0.005;
+
+/// Runs (or resumes) one session on the device at `path` (a serial port; the
+/// emulator's pseudo-terminal for a simulated participant), in real time,
+/// with the simulated participant driving the emulated hand. A device lost
+/// mid-trial aborts and re-queues the trial and pauses the session until it
+/// answers again; after `timeout_s` without an answer the run gives up.
+///
+/// # Errors
+/// Bad input, I/O on the results, or a device lost for longer than the timeout.
+#[expect(
+    clippy::too_many_lines,
+    reason = "the real-time session loop reads best in one place"
+)]
+pub fn run_device(
+    dir: &ResultsDir,
+    req: &SessionRequest<'_>,
+    path: &std::path::Path,
+    timeout_s: f64,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<SessionOutcome, DeviceRunError> {
+    use crate::device::haptic::{HapticLoop, ToLoop};
+    use crate::device::link::LinkState;
+    use crate::friction::ForceLimit;
+
+    let Prepared {
+        plan,
+        mut log,
+        mut read,
+        start_at,
+        session,
+        csv,
+        resumed_at,
+        torn_bytes,
+        ..
+    } = prepare(dir, req)?;
+    let total = plan.trials.len();
+    let mut participant = SimParticipant::new(read.header.plan_seed, &read.header.participant);
+    let mut engine = Engine::new(plan, start_at);
+    let mut haptic = HapticLoop::start(path.to_owned(), 1000.0, true, ForceLimit::default())
+        .map_err(DeviceRunError::Loop)?;
+    let mut pending: VecDeque<Input> = VecDeque::from([Input::Start]);
+    let mut timers: Vec<f64> = Vec::new();
+    let (mut t, mut last_hand) = (0.0_f64, f64::NEG_INFINITY);
+    let mut lost_since: Option<f64> = Some(0.0);
+    let mut trial_live = false;
+    let completed = |read: &ReadLog| {
+        read.trials
+            .iter()
+            .filter(|r| r.status == Status::Completed)
+            .count()
+    };
+    loop {
+        while let Some(tick) = haptic.recv() {
+            t = tick.now_s;
+            if tick.link != LinkState::Connected {
+                let since = *lost_since.get_or_insert(t);
+                if trial_live {
+                    trial_live = false;
+                    engine.handle(
+                        t,
+                        Input::Abort {
+                            reason: "device lost".into(),
+                            requeue: true,
+                        },
+                    );
+                }
+                if t - since > timeout_s {
+                    let stats = haptic.stop();
+                    log.append(&LogLine::Loop(stats))?;
+                    return Err(DeviceRunError::Lost {
+                        timeout_s,
+                        completed: completed(&read),
+                    });
+                }
+                continue;
+            }
+            lost_since = None;
+            let sample = DeviceSample {
+                x_m: tick.x_m,
+                v_m_s: tick.v_m_s,
+                force_n: tick.force_n,
+                vibration: tick.vibration,
+            };
+            let reaction = participant.decide(t, &sample);
+            pending.extend(reaction.inputs);
+            if t - last_hand >= HAND_EVERY_S {
+                last_hand = t;
+                haptic.send(ToLoop::Device(participant.drive_message(t, &sample)));
+            }
+            if timers.iter().any(|&w| w <= t) {
+                timers.retain(|&w| w > t);
+                pending.push_back(Input::Timer);
+            }
+        }
+        // Paused while the device is lost: inputs wait.
+        if lost_since.is_none() {
+            while let Some(input) = pending.pop_front() {
+                engine.handle(t, input);
+                while let Some(action) = engine.poll() {
+                    match &action {
+                        Action::Render(model) => {
+                            trial_live = model.is_some();
+                            haptic.send(ToLoop::Model(model.clone()));
+                        }
+                        Action::WakeAt(at) => timers.push(*at),
+                        Action::Record(record) => {
+                            trial_live = false;
+                            write_record(&mut log, &mut read, &csv, record)?;
+                            pending.push_back(Input::Recorded);
+                            progress(record.trial + 1, total);
+                        }
+                        Action::Finished => {
+                            let stats = haptic.stop();
+                            log.append(&LogLine::Loop(stats))?;
+                            let done = completed(&read);
+                            log.append(&LogLine::End {
+                                completed: done,
+                                aborted: read.trials.len() - done,
+                            })?;
+                            return Ok(SessionOutcome {
+                                session,
+                                completed: done,
+                                aborted: read.trials.len() - done,
+                                resumed_at,
+                                torn_bytes,
+                                simulated_s: t,
+                                csv,
+                                log: log.path().to_owned(),
+                            });
+                        }
+                        _ => {}
+                    }
+                    // On a device the hand cannot jump: it moves to its home position itself.
+                    pending.extend(participant.on_action(t, &action, engine.trial()).inputs);
+                }
+            }
+        }
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
 }

@@ -8,8 +8,9 @@
 )]
 
 use std::io::{Read, Write};
+mod common;
+
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
@@ -20,20 +21,6 @@ use frictionlab::device::wire::{Decoder, MAX_FRAME, Message, encode, frame, stat
 
 /// `TTYPort::pair` is not thread-safe: tests that make pairs take turns.
 static PTY: Mutex<()> = Mutex::new(());
-
-fn emulator(path: &Path) -> Child {
-    let child = Command::new(env!("CARGO_BIN_EXE_frictionlab"))
-        .args(["device-emulator", path.to_str().unwrap()])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let start = Instant::now();
-    while std::fs::read_link(path).is_err() && start.elapsed() < Duration::from_secs(10) {
-        std::thread::sleep(Duration::from_millis(10));
-    }
-    child
-}
 
 /// Runs the host side for `seconds` of wall time at about 1 kHz: sends what
 /// the link asks for (rendering `force(t)`, plus a hand drive every 10 ms),
@@ -111,7 +98,7 @@ fn handshake_clamping_hand_and_watchdog_over_a_pty() {
         .unwrap_or_else(std::sync::PoisonError::into_inner);
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("dev");
-    let mut child = emulator(&path);
+    let mut child = common::emulator(&path);
     let mut host = Host::new(&path);
     assert!(host.wait_for(LinkState::Connected, 5.0), "handshake");
     let caps = host.link.capabilities().unwrap();
@@ -150,7 +137,7 @@ fn handshake_clamping_hand_and_watchdog_over_a_pty() {
 fn an_emulator_killed_mid_session_is_found_lost_then_again_and_a_dead_link_stays_lost() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("dev");
-    let mut child = emulator(&path);
+    let mut child = common::emulator(&path);
     let mut host = Host::new(&path);
     assert!(host.wait_for(LinkState::Connected, 5.0));
     child.kill().unwrap(); // SIGKILL, mid-stream
@@ -162,7 +149,7 @@ fn an_emulator_killed_mid_session_is_found_lost_then_again_and_a_dead_link_stays
         "noticed within {} s",
         host.now() - killed
     );
-    let mut child = emulator(&path);
+    let mut child = common::emulator(&path);
     assert!(
         host.wait_for(LinkState::Connected, 5.0),
         "reconnected after restart"

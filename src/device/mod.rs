@@ -5,6 +5,7 @@
 //! that speaks it.
 
 pub mod emulator;
+pub mod haptic;
 pub mod link;
 pub mod sim;
 pub mod transport;

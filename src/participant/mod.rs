@@ -439,6 +439,22 @@ impl SimParticipant {
         }
     }
 
+    /// The hand's reference and impedance at `now`, as the device emulator's
+    /// `HandDrive` message (the emulator applies the hand's force itself).
+    #[must_use]
+    #[expect(clippy::cast_possible_truncation, reason = "f32 is the wire's type")]
+    pub fn drive_message(&self, now: f64, sample: &DeviceSample) -> crate::device::wire::Message {
+        let d = self.drive(now, sample);
+        crate::device::wire::Message::HandDrive {
+            x_m: d.x as f32,
+            v_m_s: d.v as f32,
+            stiffness_n_m: d.k as f32,
+            damping_n_s_m: d.b as f32,
+            integral: d.ki as f32,
+            click: false,
+        }
+    }
+
     /// The force the hand applies to the device this tick, N.
     pub fn hand_force(&mut self, now: f64, dt: f64, sample: &DeviceSample) -> f64 {
         let d = self.drive(now, sample);

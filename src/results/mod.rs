@@ -81,6 +81,8 @@ pub enum LogLine {
         /// Bytes of a torn last line that were cut off before resuming.
         torn_bytes: u64,
     },
+    /// The haptic loop's timing and link statistics (device sessions).
+    Loop(crate::device::haptic::LoopStats),
     /// An experimenter's note.
     Note {
         /// The text.
@@ -506,7 +508,7 @@ pub fn parse_log(path: &Path, bytes: &[u8]) -> Result<ReadLog, ResultsError> {
                     }
                     LogLine::Trial(r) => trials.push(r),
                     LogLine::End { .. } => ended = true,
-                    LogLine::Resumed { .. } | LogLine::Note { .. } => {}
+                    LogLine::Resumed { .. } | LogLine::Note { .. } | LogLine::Loop(_) => {}
                 }
                 valid_len = next;
             }

@@ -74,3 +74,20 @@ pub fn wiggle(n: usize, dt: f64, a: f64) -> Vec<Input> {
         })
         .collect()
 }
+
+/// Starts `frictionlab device-emulator PATH` and waits until it has linked
+/// its pseudo-terminal at `path`.
+pub fn emulator(path: &std::path::Path) -> std::process::Child {
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_frictionlab"))
+        .args(["device-emulator", path.to_str().unwrap()])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while std::fs::read_link(path).is_err() && start.elapsed() < std::time::Duration::from_secs(10)
+    {
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    child
+}

@@ -1,0 +1,167 @@
+//! Whole sessions on the emulated device over a pseudo-terminal: a quick
+//! session end to end, an emulator killed mid-trial and restarted, and a
+//! device that never comes back (exit 3, completed trials intact).
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    reason = "a failed unwrap is a failed test"
+)]
+
+mod common;
+
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use frictionlab::protocol::engine::Status;
+use frictionlab::results::{LogLine, read_log};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_frictionlab"))
+}
+
+fn run(protocol: &str, out: &Path, dev: &Path, extra: &[&str]) -> Child {
+    let p = format!("{}/protocols/{protocol}.json", env!("CARGO_MANIFEST_DIR"));
+    let mut args = vec![
+        "run",
+        &p,
+        "--participant",
+        "dev",
+        "--out",
+        out.to_str().unwrap(),
+        "--device",
+        dev.to_str().unwrap(),
+        "--responder",
+        "sim",
+        "--seed",
+        "5",
+    ];
+    args.extend_from_slice(extra);
+    bin()
+        .args(&args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+fn log_of(out: &Path, protocol: &str) -> std::path::PathBuf {
+    out.join(format!(
+        "logs/study-{}_subject-dev_session-1_log.jsonl",
+        protocol.replace('-', "")
+    ))
+}
+
+#[test]
+fn a_quick_session_runs_end_to_end_on_the_emulated_device() {
+    let dir = tempfile::tempdir().unwrap();
+    let dev = dir.path().join("dev");
+    let mut emu = common::emulator(&dev);
+    let out = dir.path().join("results");
+    let o = run("paired-quick", &out, &dev, &[])
+        .wait_with_output()
+        .unwrap();
+    emu.kill().unwrap();
+    emu.wait().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(log_of(&out, "paired-quick")).unwrap();
+    let log = read_log(&log_of(&out, "paired-quick")).unwrap();
+    assert!(log.ended && log.trials.len() == 1 && log.trials[0].status == Status::Completed);
+    assert_eq!(log.header.device, dev.to_str().unwrap());
+    let stats = text
+        .lines()
+        .filter_map(|l| match serde_json::from_str::<LogLine>(l) {
+            Ok(LogLine::Loop(s)) => Some(s),
+            _ => None,
+        });
+    let stats: Vec<_> = stats.collect();
+    assert_eq!(stats.len(), 1, "loop statistics in the session log");
+    assert!(stats[0].ticks > 1000 && stats[0].rate_hz == 1000.0);
+}
+
+#[test]
+fn an_emulator_killed_mid_trial_and_restarted_costs_one_requeued_trial() {
+    let dir = tempfile::tempdir().unwrap();
+    let dev = dir.path().join("dev");
+    let mut emu = common::emulator(&dev);
+    let out = dir.path().join("results");
+    let session = run("magnitude-quick", &out, &dev, &["--device-timeout", "20"]);
+    // Trials take 2 s: at 3.2 s the second trial is under way.
+    std::thread::sleep(Duration::from_millis(3200));
+    emu.kill().unwrap();
+    emu.wait().unwrap();
+    std::thread::sleep(Duration::from_millis(600));
+    let mut emu = common::emulator(&dev);
+    let o = session.wait_with_output().unwrap();
+    emu.kill().unwrap();
+    emu.wait().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let log = read_log(&log_of(&out, "magnitude-quick")).unwrap();
+    assert!(log.ended);
+    let aborted: Vec<_> = log
+        .trials
+        .iter()
+        .filter(|r| r.status == Status::Aborted)
+        .collect();
+    assert_eq!(
+        aborted.len(),
+        1,
+        "{:?}",
+        log.trials
+            .iter()
+            .map(|r| (r.trial, r.status))
+            .collect::<Vec<_>>()
+    );
+    assert!(aborted[0].requeued && aborted[0].abort_reason.as_deref() == Some("device lost"));
+    let mut completed: Vec<usize> = log
+        .trials
+        .iter()
+        .filter(|r| r.status == Status::Completed)
+        .map(|r| r.trial)
+        .collect();
+    completed.sort_unstable();
+    assert_eq!(
+        completed,
+        (0..6).collect::<Vec<_>>(),
+        "every planned trial completed once"
+    );
+}
+
+#[test]
+fn a_device_that_never_comes_back_ends_the_run_with_exit_3() {
+    let dir = tempfile::tempdir().unwrap();
+    let dev = dir.path().join("dev");
+    let mut emu = common::emulator(&dev);
+    let out = dir.path().join("results");
+    let session = run("magnitude-quick", &out, &dev, &["--device-timeout", "1.5"]);
+    std::thread::sleep(Duration::from_secs(3));
+    emu.kill().unwrap();
+    emu.wait().unwrap();
+    let started = Instant::now();
+    let o = session.wait_with_output().unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(3),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(started.elapsed() < Duration::from_secs(10));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("no answer from the device for 1.5 s"),
+        "{stderr}"
+    );
+    let log = read_log(&log_of(&out, "magnitude-quick")).unwrap();
+    assert!(!log.ended);
+    let completed = log
+        .trials
+        .iter()
+        .filter(|r| r.status == Status::Completed)
+        .count();
+    assert!(completed >= 1, "completed trials kept: {completed}");
+    let csv = std::fs::read_to_string(
+        out.join("data/study-magnitudequick_subject-dev_session-1_data.csv"),
+    )
+    .unwrap();
+    assert!(csv.lines().count() > completed, "the CSV has them too");
+}
