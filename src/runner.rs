@@ -389,6 +389,23 @@ pub enum DeviceRunError {
     Loop(std::io::Error),
 }
 
+/// The haptic loop rate a plan needs: the highest loop rate of any model it
+/// renders (5 kHz for seed 001's stick-slip models, else 1 kHz).
+fn loop_rate_hz(plan: &Plan) -> f64 {
+    use crate::protocol::plan::TrialSpec;
+    plan.trials
+        .iter()
+        .map(|t| match &t.spec {
+            TrialSpec::MagnitudeEstimation { model, .. } | TrialSpec::Fitts { model, .. } => {
+                model.loop_rate_hz()
+            }
+            TrialSpec::PairedComparison { first, second, .. } => {
+                first.model.loop_rate_hz().max(second.model.loop_rate_hz())
+            }
+        })
+        .fold(1000.0, f64::max)
+}
+
 /// How often the participant's hand drive is sent to the emulator, s.
 const HAND_EVERY_S: f64 = 0.005;
 
@@ -429,7 +446,8 @@ pub fn run_device(
     let total = plan.trials.len();
     let mut participant = SimParticipant::new(read.header.plan_seed, &read.header.participant);
     let mut engine = Engine::new(plan, start_at);
-    let mut haptic = HapticLoop::start(path.to_owned(), 1000.0, true, ForceLimit::default())
+    let rate_hz = loop_rate_hz(engine.plan());
+    let mut haptic = HapticLoop::start(path.to_owned(), rate_hz, true, ForceLimit::default())
         .map_err(DeviceRunError::Loop)?;
     let mut pending: VecDeque<Input> = VecDeque::from([Input::Start]);
     let mut timers: Vec<f64> = Vec::new();

@@ -58,13 +58,23 @@ impl Transport {
         }
     }
 
-    /// Reads what is available into `buf` (0 when nothing is, or the port is
-    /// closed); an error closes the port, to be reopened on the next call.
+    /// Reads what is available into `buf` without blocking (0 when nothing
+    /// is, or the port is closed); an error closes the port, to be reopened
+    /// on the next call.
     pub fn read(&mut self, buf: &mut [u8]) -> usize {
         self.ensure_open();
         let Some(port) = self.port.as_mut() else {
             return 0;
         };
+        // Never block the loop: read only what is already waiting.
+        match port.bytes_to_read() {
+            Ok(0) => return 0,
+            Ok(_) => {}
+            Err(_) => {
+                self.port = None;
+                return 0;
+            }
+        }
         match port.read(buf) {
             Ok(n) => n,
             Err(e)
