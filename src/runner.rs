@@ -181,6 +181,25 @@ fn write_record(
     replace_file(csv, data_csv(read).as_bytes(), false)
 }
 
+/// Carries out a simulated participant's reaction on the simulated device:
+/// the hand (and device) move to rest at a home position if asked, and the
+/// inputs queue for the engine.
+fn apply(
+    reaction: crate::participant::Reaction,
+    device: &mut SimDevice,
+    sample: &mut DeviceSample,
+    pending: &mut VecDeque<Input>,
+) {
+    if let Some(x) = reaction.reset_to {
+        device.reset(x);
+        *sample = DeviceSample {
+            x_m: x,
+            ..DeviceSample::default()
+        };
+    }
+    pending.extend(reaction.inputs);
+}
+
 /// Keeps virtual time from running ahead of `pace` x the wall clock.
 struct Pacer {
     pace: Option<f64>,
@@ -280,14 +299,7 @@ pub fn run_simulated(
                 _ => {}
             }
             let reaction = participant.on_action(t, &action, engine.trial());
-            if let Some(x) = reaction.reset_to {
-                device.reset(x);
-                sample = DeviceSample {
-                    x_m: x,
-                    ..DeviceSample::default()
-                };
-            }
-            pending.extend(reaction.inputs);
+            apply(reaction, &mut device, &mut sample, &mut pending);
         }
         if let Some(input) = pending.pop_front() {
             engine.handle(t, input);
@@ -298,14 +310,7 @@ pub fn run_simulated(
         t += dt;
         ticks += 1;
         let reaction = participant.decide(t, &sample);
-        if let Some(x) = reaction.reset_to {
-            device.reset(x);
-            sample = DeviceSample {
-                x_m: x,
-                ..DeviceSample::default()
-            };
-        }
-        pending.extend(reaction.inputs);
+        apply(reaction, &mut device, &mut sample, &mut pending);
         if timers.iter().any(|&w| w <= t) {
             timers.retain(|&w| w > t);
             pending.push_back(Input::Timer);
