@@ -20,10 +20,28 @@ pub const EXIT_BAD_INPUT: u8 = 2;
 /// Renders friction on a haptic device, runs friction-perception experiments
 /// and analyses them.
 #[derive(Debug, Parser)]
-#[command(name = "frictionlab", version, arg_required_else_help = true)]
+#[command(name = "frictionlab", version)]
 pub struct Cli {
+    /// Without a command: the experimenter window (`gui`).
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
+}
+
+/// `frictionlab gui` options: what the window opens with.
+#[derive(Debug, clap::Args, Default)]
+struct GuiArgs {
+    /// A protocol file (default: the first shipped protocol).
+    #[arg(long)]
+    protocol: Option<PathBuf>,
+    /// Participant id.
+    #[arg(long, default_value = "")]
+    participant: String,
+    /// Results folder.
+    #[arg(long, default_value = "results")]
+    out: PathBuf,
+    /// `sim` (the simulated device) or a serial port's path.
+    #[arg(long, default_value = "sim")]
+    device: String,
 }
 
 #[derive(Debug, Subcommand)]
@@ -34,6 +52,8 @@ enum Command {
         #[arg(required = true)]
         protocols: Vec<PathBuf>,
     },
+    /// Opens the experimenter window (the default without a command).
+    Gui(GuiArgs),
     /// Runs one session (headless with `--device sim --responder sim`).
     Run(RunArgs),
     /// Runs N whole sessions with simulated participants on the simulated
@@ -182,7 +202,18 @@ pub fn main() -> ExitCode {
             return ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(EXIT_BAD_INPUT));
         }
     };
-    let result = match cli.command {
+    let Some(command) = cli.command else {
+        return finish(gui_command(
+            GuiArgs {
+                out: PathBuf::from("results"),
+                device: "sim".into(),
+                ..GuiArgs::default()
+            },
+            None,
+        ));
+    };
+    let result = match command {
+        Command::Gui(args) => gui_command(args, None),
         Command::Validate { protocols } => validate_command(&protocols),
         Command::Run(args) => run_command(&args),
         Command::Simulate(args) => simulate_command(&args),
@@ -203,6 +234,10 @@ pub fn main() -> ExitCode {
             Ok(())
         }
     };
+    finish(result)
+}
+
+fn finish(result: Result<(), Failure>) -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(failure) => {
@@ -252,18 +287,12 @@ impl From<ResultsError> for Failure {
 
 /// Reads and checks a protocol file.
 fn load_protocol(path: &Path) -> Result<(Protocol, Vec<u8>), Vec<UserError>> {
-    let file = path.display().to_string();
-    let bytes = std::fs::read(path)
-        .map_err(|e| vec![UserError::new(&file, format!("cannot read: {e}"))])?;
-    let text = String::from_utf8(bytes.clone())
-        .map_err(|e| vec![UserError::new(&file, format!("not UTF-8 text: {e}"))])?;
-    let protocol = load::parse(&text).map_err(|errors| {
+    load::read(path).map_err(|errors| {
         errors
             .into_iter()
-            .map(|e| UserError::new(format!("{file}: {}", e.path), e.message))
-            .collect::<Vec<_>>()
-    })?;
-    Ok((protocol, bytes))
+            .map(|e| UserError::new(e.path, e.message))
+            .collect()
+    })
 }
 
 fn validate_command(paths: &[PathBuf]) -> Result<(), Failure> {
@@ -323,27 +352,47 @@ fn device_failure(place: &str, message: impl Into<String>) -> Failure {
     }
 }
 
+/// Opens the experimenter window; without a display, says so (exit 2).
+fn gui_command(args: GuiArgs, start: Option<crate::gui::AutoStart>) -> Result<(), Failure> {
+    let headless = "run sessions without a window with `frictionlab run PROTOCOL --participant ID --out DIR --responder sim` or `frictionlab simulate`";
+    let no_display = |why: &str| -> Failure {
+        vec![UserError::new(
+            "gui",
+            format!("cannot open the window: {why}; {headless}"),
+        )]
+        .into()
+    };
+    if cfg!(target_os = "linux")
+        && ["DISPLAY", "WAYLAND_DISPLAY"]
+            .iter()
+            .all(|v| std::env::var_os(v).is_none_or(|s| s.is_empty()))
+    {
+        return Err(no_display(
+            "no display (DISPLAY and WAYLAND_DISPLAY are unset)",
+        ));
+    }
+    let device = if args.device == "sim" {
+        crate::live::DeviceChoice::Simulated
+    } else {
+        crate::live::DeviceChoice::Port(PathBuf::from(&args.device))
+    };
+    crate::gui::run(crate::gui::Launch {
+        protocol: args.protocol,
+        participant: args.participant,
+        out: args.out,
+        device,
+        start,
+    })
+    .map_err(|e| no_display(&e))
+}
+
 fn ports_command() -> Result<(), Failure> {
-    let ports =
-        serialport::available_ports().map_err(|e| device_failure("ports", e.to_string()))?;
+    let ports = crate::device::list_ports().map_err(|e| device_failure("ports", e))?;
     if ports.is_empty() {
         println!("no serial ports found");
     }
     for p in ports {
-        let kind = match p.port_type {
-            serialport::SerialPortType::UsbPort(u) => {
-                format!(
-                    "usb {:04x}:{:04x} {}",
-                    u.vid,
-                    u.pid,
-                    u.product.unwrap_or_default()
-                )
-            }
-            serialport::SerialPortType::PciPort => "pci".into(),
-            serialport::SerialPortType::BluetoothPort => "bluetooth".into(),
-            serialport::SerialPortType::Unknown => "unknown".into(),
-        };
-        println!("{}\t{kind}", p.port_name);
+        println!("{}\t{}", p.path, p.kind);
     }
     Ok(())
 }
@@ -404,7 +453,8 @@ fn check_pace(pace: f64) -> Result<(), Vec<UserError>> {
     }
 }
 
-fn run_command(args: &RunArgs) -> Result<(), Failure> {
+/// The `run` options' problems, all at once.
+fn check_run_args(args: &RunArgs) -> Vec<UserError> {
     let mut errors = Vec::new();
     if args.device != "sim" && !Path::new(&args.device).exists() {
         errors.push(UserError::new(
@@ -421,11 +471,11 @@ fn run_command(args: &RunArgs) -> Result<(), Failure> {
             ),
         ));
     }
-    if args.responder != "sim" {
+    if args.responder != "sim" && args.responder != "gui" {
         errors.push(UserError::new(
             "--responder",
             format!(
-                "'{}': only the simulated participant ('sim') is available in this version; the experimenter window comes later",
+                "'{}': 'gui' (a person, in the experimenter window) or 'sim' (a simulated participant)",
                 args.responder
             ),
         ));
@@ -436,6 +486,11 @@ fn run_command(args: &RunArgs) -> Result<(), Failure> {
     if let Err(e) = check_pace(args.pace) {
         errors.extend(e);
     }
+    errors
+}
+
+fn run_command(args: &RunArgs) -> Result<(), Failure> {
+    let mut errors = check_run_args(args);
     let loaded = load_protocol(&args.protocol);
     let (protocol, bytes) = match loaded {
         Ok(ok) if errors.is_empty() => ok,
@@ -445,6 +500,23 @@ fn run_command(args: &RunArgs) -> Result<(), Failure> {
             return Err(errors.into());
         }
     };
+    if args.responder == "gui" {
+        // A person answers: the experimenter window opens with this session
+        // started (or resumed).
+        return gui_command(
+            GuiArgs {
+                protocol: Some(args.protocol.clone()),
+                participant: args.participant.clone(),
+                out: args.out.clone(),
+                device: args.device.clone(),
+            },
+            Some(crate::gui::AutoStart {
+                resume: args.resume,
+                seed: args.seed,
+                participant_index: args.participant_index,
+            }),
+        );
+    }
     let seed = args.seed.unwrap_or_else(rand::random::<u64>);
     let dir = results::ResultsDir::new(&args.out);
     let req = runner::SessionRequest {

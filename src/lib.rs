@@ -9,6 +9,8 @@ pub mod analysis;
 pub mod cli;
 pub mod device;
 pub mod friction;
+pub mod gui;
+pub mod live;
 pub mod participant;
 pub mod protocol;
 pub mod render;

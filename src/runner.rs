@@ -68,19 +68,26 @@ pub struct SessionOutcome {
 }
 
 /// A session ready to run: its plan, its log, and where it starts.
-struct Prepared {
-    plan: Plan,
-    log: SessionLog,
-    read: ReadLog,
-    start_at: usize,
-    start_time: f64,
-    session: u32,
-    csv: PathBuf,
-    resumed_at: Option<usize>,
-    torn_bytes: u64,
+pub(crate) struct Prepared {
+    pub(crate) plan: Plan,
+    pub(crate) log: SessionLog,
+    pub(crate) read: ReadLog,
+    pub(crate) start_at: usize,
+    pub(crate) start_time: f64,
+    pub(crate) session: u32,
+    pub(crate) csv: PathBuf,
+    pub(crate) resumed_at: Option<usize>,
+    pub(crate) torn_bytes: u64,
 }
 
-fn prepare(dir: &ResultsDir, req: &SessionRequest<'_>) -> Result<Prepared, ResultsError> {
+/// Opens the session's log: a new session (header, empty CSV) or the
+/// participant's unfinished one when resuming (torn last line cut, a
+/// `resumed` line appended). `responder` is logged in a new header.
+pub(crate) fn prepare(
+    dir: &ResultsDir,
+    req: &SessionRequest<'_>,
+    responder: &str,
+) -> Result<Prepared, ResultsError> {
     let id = &req.protocol.id;
     let sessions = dir.sessions(id, req.participant)?;
     if req.resume {
@@ -142,7 +149,7 @@ fn prepare(dir: &ResultsDir, req: &SessionRequest<'_>) -> Result<Prepared, Resul
         participant_index,
         session,
         device: req.device.to_owned(),
-        responder: "sim".into(),
+        responder: responder.into(),
         planned_trials: plan.trials.len(),
     };
     let log = SessionLog::create(&files.log, header.clone())?;
@@ -170,7 +177,7 @@ fn prepare(dir: &ResultsDir, req: &SessionRequest<'_>) -> Result<Prepared, Resul
 
 /// Puts a trial record on disk: appended to the log and fsync'd, then the
 /// CSV rewritten from the log. Only after this may the next trial start.
-fn write_record(
+pub(crate) fn write_record(
     log: &mut SessionLog,
     read: &mut ReadLog,
     csv: &std::path::Path,
@@ -243,7 +250,7 @@ pub fn run_simulated(
         csv,
         resumed_at,
         torn_bytes,
-    } = prepare(dir, req)?;
+    } = prepare(dir, req, "sim")?;
     let total = plan.trials.len();
     let seed = read.header.plan_seed;
     let mut participant = SimParticipant::new(seed, &read.header.participant);
@@ -396,7 +403,7 @@ pub enum DeviceRunError {
 
 /// The haptic loop rate a plan needs: the highest loop rate of any model it
 /// renders (5 kHz for seed 001's stick-slip models, else 1 kHz).
-fn loop_rate_hz(plan: &Plan) -> f64 {
+pub(crate) fn loop_rate_hz(plan: &Plan) -> f64 {
     use crate::protocol::plan::TrialSpec;
     plan.trials
         .iter()
@@ -412,7 +419,7 @@ fn loop_rate_hz(plan: &Plan) -> f64 {
 }
 
 /// How often the participant's hand drive is sent to the emulator, s.
-const HAND_EVERY_S: f64 = 0.005;
+pub(crate) const HAND_EVERY_S: f64 = 0.005;
 
 /// Runs (or resumes) one session on the device at `path` (a serial port; the
 /// emulator's pseudo-terminal for a simulated participant), in real time,
@@ -447,7 +454,7 @@ pub fn run_device(
         resumed_at,
         torn_bytes,
         ..
-    } = prepare(dir, req)?;
+    } = prepare(dir, req, "sim")?;
     let total = plan.trials.len();
     let mut participant = SimParticipant::new(read.header.plan_seed, &read.header.participant);
     let mut engine = Engine::new(plan, start_at);

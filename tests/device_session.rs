@@ -165,3 +165,81 @@ fn a_device_that_never_comes_back_ends_the_run_with_exit_3() {
     .unwrap();
     assert!(csv.lines().count() > completed, "the CSV has them too");
 }
+
+/// The session the GUI drives, on the emulated device: the pointer's hand
+/// drive moves the device, answers go in, the live status reports the loop,
+/// and every trial is logged with the responder `gui`.
+#[test]
+fn a_live_gui_session_runs_on_the_emulated_device() {
+    use frictionlab::live::{DeviceChoice, LiveSession, Phase};
+    use frictionlab::protocol::engine::{Answer, Input, Screen};
+    use frictionlab::runner::SessionRequest;
+
+    let dir = tempfile::tempdir().unwrap();
+    let dev = dir.path().join("dev");
+    let mut emu = common::emulator(&dev);
+    let path = format!(
+        "{}/protocols/magnitude-quick.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let (protocol, bytes) = frictionlab::protocol::load::read(Path::new(&path)).unwrap();
+    let results = frictionlab::results::ResultsDir::new(dir.path().join("results"));
+    let device = dev.display().to_string();
+    let req = SessionRequest {
+        protocol: &protocol,
+        protocol_bytes: &bytes,
+        participant: "gui-dev",
+        participant_index: None,
+        seed: 9,
+        resume: false,
+        pace: None,
+        device: &device,
+    };
+    let mut live = LiveSession::start(&results, &req, &DeviceChoice::Port(dev.clone())).unwrap();
+    let start = Instant::now();
+    let mut followed = false;
+    let mut p99 = None;
+    while live.phase() != Phase::Finished && start.elapsed() < Duration::from_secs(40) {
+        live.advance(start.elapsed().as_secs_f64()).unwrap();
+        live.set_hand_target(Some(0.004));
+        let status = live.device_status();
+        if status.connected && (status.x_m - 0.004).abs() < 1e-3 {
+            followed = true;
+            p99 = p99.or(status.period_p99_s);
+        }
+        let input = match live.view().screen {
+            Some(Screen::Instructions(_) | Screen::Break { .. }) => Some(Input::Continue),
+            Some(Screen::Explore { .. }) if followed => {
+                Some(Input::Answer(Answer::Magnitude("2".into())))
+            }
+            _ => None,
+        };
+        if let Some(input) = input {
+            live.input(input).unwrap();
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    emu.kill().unwrap();
+    emu.wait().unwrap();
+    assert_eq!(live.phase(), Phase::Finished, "{:?}", live.view());
+    assert!(followed, "the device followed the pointer's hand drive");
+    let p99 = p99.expect("the loop period is reported");
+    assert!(p99 > 0.0 && p99.is_finite());
+    assert_eq!(
+        live.device_status().rate_hz,
+        5000.0,
+        "stick-slip needs 5 kHz"
+    );
+    let read = read_log(live.log_path()).unwrap();
+    assert!(read.ended);
+    assert_eq!(read.header.responder, "gui");
+    assert_eq!(read.header.device, device);
+    assert_eq!(read.trials.len(), 6);
+    assert!(read.trials.iter().all(|r| r.status == Status::Completed));
+    let text = std::fs::read_to_string(live.log_path()).unwrap();
+    assert!(
+        text.lines()
+            .filter_map(|l| serde_json::from_str::<LogLine>(l).ok())
+            .any(|l| matches!(l, LogLine::Loop(_)))
+    );
+}

@@ -11,6 +11,40 @@ pub mod sim;
 pub mod transport;
 pub mod wire;
 
+/// A serial port that may carry a haptic device.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PortInfo {
+    /// Its path (`/dev/ttyACM0`, `COM3`).
+    pub path: String,
+    /// `usb VID:PID product`, `pci`, `bluetooth` or `unknown`.
+    pub kind: String,
+}
+
+/// Lists the serial ports (without opening any).
+///
+/// # Errors
+/// The system's port list cannot be read.
+pub fn list_ports() -> Result<Vec<PortInfo>, String> {
+    let ports = serialport::available_ports().map_err(|e| e.to_string())?;
+    Ok(ports
+        .into_iter()
+        .map(|p| PortInfo {
+            kind: match p.port_type {
+                serialport::SerialPortType::UsbPort(u) => format!(
+                    "usb {:04x}:{:04x} {}",
+                    u.vid,
+                    u.pid,
+                    u.product.unwrap_or_default()
+                ),
+                serialport::SerialPortType::PciPort => "pci".into(),
+                serialport::SerialPortType::BluetoothPort => "bluetooth".into(),
+                serialport::SerialPortType::Unknown => "unknown".into(),
+            },
+            path: p.port_name,
+        })
+        .collect())
+}
+
 /// What a device reports each loop tick.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct DeviceSample {

@@ -388,6 +388,13 @@ impl Engine {
         self.plan.trials.get(self.next)
     }
 
+    /// Whether a trial is being presented (stimulus on, answer or taps
+    /// awaited): an abort now logs it as aborted.
+    #[must_use]
+    pub fn in_trial(&self) -> bool {
+        matches!(self.stage, Stage::Trial(_))
+    }
+
     /// Whether every trial is done.
     #[must_use]
     pub fn is_finished(&self) -> bool {

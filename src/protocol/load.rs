@@ -63,6 +63,34 @@ pub fn parse(text: &str) -> Result<Protocol, Vec<LoadError>> {
     }
 }
 
+/// Reads and checks a protocol file; returns it with the file's bytes
+/// (hashed into session logs). Each error's `path` starts with the file:
+/// `<file>: <json path or line:col>`.
+///
+/// # Errors
+/// The file cannot be read or is not UTF-8, or every problem [`parse`] finds.
+pub fn read(path: &std::path::Path) -> Result<(Protocol, Vec<u8>), Vec<LoadError>> {
+    let file = path.display().to_string();
+    let whole = |message: String| {
+        vec![LoadError {
+            path: file.clone(),
+            message,
+        }]
+    };
+    let bytes = std::fs::read(path).map_err(|e| whole(format!("cannot read: {e}")))?;
+    let text = std::str::from_utf8(&bytes).map_err(|e| whole(format!("not UTF-8 text: {e}")))?;
+    let protocol = parse(text).map_err(|errors| {
+        errors
+            .into_iter()
+            .map(|e| LoadError {
+                path: format!("{file}: {}", e.path),
+                message: e.message,
+            })
+            .collect::<Vec<_>>()
+    })?;
+    Ok((protocol, bytes))
+}
+
 /// Letters, digits, `-` and `_`, at least one letter or digit.
 #[must_use]
 pub fn is_valid_id(id: &str) -> bool {

@@ -310,3 +310,29 @@ pub fn json_schema() -> String {
     let schema = schemars::schema_for!(Protocol);
     serde_json::to_string_pretty(&schema).unwrap_or_default() + "\n"
 }
+
+/// The protocols shipped in `protocols/`, built into the binary so the GUI
+/// lists them wherever it runs: (file name, file text).
+pub const SHIPPED: &[(&str, &str)] = &[
+    (
+        "magnitude-quick.json",
+        include_str!("../../protocols/magnitude-quick.json"),
+    ),
+    (
+        "magnitude-estimation.json",
+        include_str!("../../protocols/magnitude-estimation.json"),
+    ),
+    (
+        "paired-quick.json",
+        include_str!("../../protocols/paired-quick.json"),
+    ),
+    (
+        "paired-comparison.json",
+        include_str!("../../protocols/paired-comparison.json"),
+    ),
+    (
+        "fitts-quick.json",
+        include_str!("../../protocols/fitts-quick.json"),
+    ),
+    ("fitts.json", include_str!("../../protocols/fitts.json")),
+];

@@ -1,0 +1,60 @@
+#!/usr/bin/env bash
+# Takes the screenshots in docs/screenshots/ of the experimenter window and
+# the participant's screens, under a virtual X display (Xvfb), driving the
+# windows with xdotool. Run from the repository root:
+#
+#   bash docs/screenshots.sh
+#
+# Needs: xvfb, imagemagick, xdotool (installed here with apt-get if missing).
+# Windows open at fixed places on a 1920x1080 screen (no window manager):
+# the experimenter's at (0, 0), 1000x820; the participant's at (1010, 0),
+# 900x560. The click positions below are in screen pixels.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+if ! command -v Xvfb >/dev/null || ! command -v xdotool >/dev/null || ! command -v import >/dev/null; then
+    apt-get update -qq && apt-get install -y -qq xvfb imagemagick xdotool >/dev/null
+fi
+cargo build --release --quiet
+bin=target/release/frictionlab
+out=docs/screenshots
+work=$(mktemp -d)
+export DISPLAY=:97
+Xvfb "$DISPLAY" -screen 0 1920x1080x24 >/dev/null 2>&1 &
+xvfb=$!
+trap 'pkill -f "$bin" || true; kill $xvfb 2>/dev/null || true; rm -rf "$work"' EXIT
+sleep 1
+
+shot() { import -window root -crop "$2" "$out/$1.png"; }
+experimenter() { shot "$1" 1000x820+0+0; }
+participant() { shot "$1" 900x560+1010+0; }
+both() { shot "$1" 1910x820+0+0; }
+click() { xdotool mousemove "$1" "$2" click 1; sleep "${3:-0.5}"; }
+focus() { xdotool windowfocus --sync "$(xdotool search --name "frictionlab: participant" | head -1)"; }
+type_text() { focus; xdotool type --delay 40 "$1"; sleep 0.3; }
+session() { # protocol file; the window opens with its session started
+    pkill -f "$bin" || true
+    sleep 0.5
+    "$bin" run "protocols/$1" --participant shot --out "$work/results" --responder gui --seed 7 \
+        >>"$work/gui.log" 2>&1 &
+    sleep 3
+}
+stroke() { # the mouse drives the simulated hand back and forth
+    for x in 1250 1700 1250 1700 1450; do xdotool mousemove "$x" 220; sleep 0.35; done
+}
+
+# The experimenter's setup.
+"$bin" gui --participant p01 --out "$work/results" >>"$work/gui.log" 2>&1 &
+sleep 3
+experimenter experimenter-setup
+
+# Magnitude estimation: instructions, exploring, a refused entry.
+session magnitude-quick.json
+participant participant-instructions
+click 1081 111 0.3
+stroke
+both session-magnitude
+sleep 1
+click 1282 142 0.3
+type_text "abc"
+click 1480 144
+participant participant-magnitude-refused
