@@ -31,13 +31,14 @@ both() { shot "$1" 1910x820+0+0; }
 click() { xdotool mousemove "$1" "$2" click 1; sleep "${3:-0.5}"; }
 focus() { xdotool windowfocus --sync "$(xdotool search --name "frictionlab: participant" | head -1)"; }
 type_text() { focus; xdotool type --delay 40 "$1"; sleep 0.3; }
-session() { # protocol file; the window opens with its session started
+session() { # protocol file [seed]; the window opens with its session started
     pkill -f "$bin" || true
     sleep 0.5
-    "$bin" run "protocols/$1" --participant shot --out "$work/results" --responder gui --seed 7 \
-        >>"$work/gui.log" 2>&1 &
+    "$bin" run "protocols/$1" --participant "shot-${2:-7}" --out "$work/results" --responder gui \
+        --seed "${2:-7}" >>"$work/gui.log" 2>&1 &
     sleep 3
 }
+answer() { click 1282 142 0.2; focus; xdotool key ctrl+a BackSpace; type_text "$1"; xdotool key Return; sleep 0.4; }
 stroke() { # the mouse drives the simulated hand back and forth
     for x in 1250 1700 1250 1700 1450; do xdotool mousemove "$x" 220; sleep 0.35; done
 }
@@ -58,3 +59,43 @@ click 1282 142 0.3
 type_text "abc"
 click 1480 144
 participant participant-magnitude-refused
+
+# The rest of the session: three answers, the break between the blocks,
+# three more, the end.
+answer 2.5
+answer 3
+answer 4
+participant participant-break
+click 1081 111
+answer 1; answer 2; answer 3
+participant participant-finished
+
+# Paired comparison: the reference phase, then the two stimuli.
+session paired-quick.json
+click 1081 111
+participant participant-reference
+click 1081 111
+stroke
+click 1312 95
+participant participant-paired
+
+# Fitts (seed 2: the `real` condition follows the practice trial): a miss,
+# four hits, then the experimenter's prompt to attach the block.
+session fitts-quick.json 2
+click 1081 111
+xdotool mousemove 1318 193; sleep 0.6; click 1318 193
+participant participant-fitts-miss
+for x in 1283 1637 1283 1637; do xdotool mousemove "$x" 193; sleep 0.6; click "$x" 193 0.2; done
+sleep 0.5
+both session-fitts-prompt
+
+# Frame time with a live session on the simulated device: 30 s of the full
+# magnitude-estimation protocol with the mouse stroking, then Ctrl+Q (the
+# window prints its frame-time statistics on exit).
+session magnitude-estimation.json
+click 1081 111
+for _ in $(seq 1 12); do stroke; done
+xdotool windowfocus --sync "$(xdotool search --name "frictionlab: experimenter" | head -1)"
+xdotool key ctrl+q
+sleep 1
+grep "frame time" "$work/gui.log" | tail -1

@@ -147,8 +147,46 @@ pub struct TracePoint {
     pub x_m: f64,
     /// Rendered force, N.
     pub force_n: f64,
-    /// Vibrotactile drive, `[-1, 1]`.
+    /// Peak |vibrotactile drive| since the previous point, `[0, 1]`: the
+    /// burst's envelope (its 600 Hz carrier would alias at the trace's
+    /// 200 Hz).
     pub vibration: f64,
+}
+
+/// The live trace: one point per [`TRACE_EVERY_S`], the last
+/// [`TRACE_LENGTH_S`] kept.
+#[derive(Debug, Clone, Default)]
+struct Trace {
+    points: VecDeque<TracePoint>,
+    last_t: Option<f64>,
+    peak_vibration: f64,
+}
+
+impl Trace {
+    fn observe(&mut self, t: f64, sample: &DeviceSample) {
+        self.peak_vibration = self.peak_vibration.max(sample.vibration.abs());
+        if self
+            .last_t
+            .is_some_and(|last| t - last < TRACE_EVERY_S - 1e-9)
+        {
+            return;
+        }
+        self.last_t = Some(t);
+        while self
+            .points
+            .front()
+            .is_some_and(|p| t - p.t_s > TRACE_LENGTH_S)
+        {
+            self.points.pop_front();
+        }
+        self.points.push_back(TracePoint {
+            t_s: t,
+            x_m: sample.x_m,
+            force_n: sample.force_n,
+            vibration: self.peak_vibration,
+        });
+        self.peak_vibration = 0.0;
+    }
 }
 
 /// Why a live session could not start.
@@ -201,8 +239,7 @@ pub struct LiveSession {
     timers: Vec<f64>,
     phase: Phase,
     view: View,
-    trace: VecDeque<TracePoint>,
-    last_trace_t: f64,
+    trace: Trace,
     hand_target: Option<f64>,
 }
 
@@ -266,8 +303,7 @@ impl LiveSession {
             timers: Vec::new(),
             phase: Phase::Running,
             view: View::default(),
-            trace: VecDeque::new(),
-            last_trace_t: f64::NEG_INFINITY,
+            trace: Trace::default(),
             hand_target: None,
         })
     }
@@ -309,7 +345,7 @@ impl LiveSession {
                 - MOUSE_HAND_DAMPING_N_S_M * self.sample.v_m_s;
             self.sample = device.step(*dt, hand);
             self.t += *dt;
-            self.push_trace();
+            self.trace.observe(self.t, &self.sample);
             if self.timers.iter().any(|&w| w <= self.t) {
                 self.timers.retain(|&w| w > self.t);
                 self.pending.push_back(Input::Timer);
@@ -366,16 +402,7 @@ impl LiveSession {
                 // ignores this message.
                 haptic.send(ToLoop::Device(mouse_hand_drive(x)));
             }
-            let point = TracePoint {
-                t_s: self.t,
-                x_m: self.sample.x_m,
-                force_n: self.sample.force_n,
-                vibration: self.sample.vibration,
-            };
-            if point.t_s - self.last_trace_t >= TRACE_EVERY_S {
-                self.last_trace_t = point.t_s;
-                push_bounded(&mut self.trace, point);
-            }
+            self.trace.observe(self.t, &self.sample);
         }
         if lost && self.engine.in_trial() {
             self.pending.push_front(Input::Abort {
@@ -390,21 +417,6 @@ impl LiveSession {
         if self.timers.iter().any(|&w| w <= self.t) {
             self.timers.retain(|&w| w > self.t);
             self.pending.push_back(Input::Timer);
-        }
-    }
-
-    fn push_trace(&mut self) {
-        if self.t - self.last_trace_t >= TRACE_EVERY_S - 1e-9 {
-            self.last_trace_t = self.t;
-            push_bounded(
-                &mut self.trace,
-                TracePoint {
-                    t_s: self.t,
-                    x_m: self.sample.x_m,
-                    force_n: self.sample.force_n,
-                    vibration: self.sample.vibration,
-                },
-            );
         }
     }
 
@@ -661,7 +673,7 @@ impl LiveSession {
     /// The last [`TRACE_LENGTH_S`] of position and force.
     #[must_use]
     pub fn trace(&self) -> &VecDeque<TracePoint> {
-        &self.trace
+        &self.trace.points
     }
 
     /// The engine (plan, current trial).
@@ -721,16 +733,6 @@ impl LiveSession {
             x_m: self.sample.x_m,
         }
     }
-}
-
-fn push_bounded(trace: &mut VecDeque<TracePoint>, point: TracePoint) {
-    while trace
-        .front()
-        .is_some_and(|p| point.t_s - p.t_s > TRACE_LENGTH_S)
-    {
-        trace.pop_front();
-    }
-    trace.push_back(point);
 }
 
 /// The emulator's hand held at the pointer: the mouse hand's spring-damper.

@@ -784,7 +784,7 @@ fn device_line(ui: &mut egui::Ui, live: &LiveSession) {
     ));
 }
 
-/// Position (mm), force (N) and vibrotactile drive over the last seconds, on
+/// Position (mm), force (N) and vibrotactile envelope over the last seconds, on
 /// a shared time axis.
 fn trace_plot(ui: &mut egui::Ui, live: &LiveSession) {
     use egui_plot::{Legend, Line, Plot, PlotPoints};
@@ -815,7 +815,7 @@ fn trace_plot(ui: &mut egui::Ui, live: &LiveSession) {
         .show(ui, |plot| {
             plot.line(Line::new("force (N)", PlotPoints::from(f)));
             plot.line(Line::new(
-                "vibrotactile drive (-1..1)",
+                "vibrotactile envelope (0..1)",
                 PlotPoints::from(vibration),
             ));
         });
@@ -839,6 +839,10 @@ impl eframe::App for FrictionlabApp {
     }
 
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        if ui.input_mut(|i| i.consume_key(egui::Modifiers::COMMAND, egui::Key::Q)) {
+            // Quit as the window's close button does (on_exit runs).
+            ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
+        }
         let mut commands = Vec::new();
         egui::CentralPanel::default_margins().show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| self.experimenter(ui, &mut commands));

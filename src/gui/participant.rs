@@ -128,7 +128,8 @@ fn big(ui: &mut egui::Ui, text: &str) {
 
 fn countdown(ui: &mut egui::Ui, what: &str, left_s: f64) {
     let text = if left_s > 0.0 {
-        format!("{what}: {left_s:.0} s left")
+        // Whole seconds, rounded up: "1 s left" until the very end.
+        format!("{what}: {:.0} s left", left_s.ceil())
     } else {
         format!("{what}: time is up")
     };
@@ -230,7 +231,7 @@ fn workspace(
     *canvas = Some(rect);
     let to_px = |x_m: f64| to_screen(rect, x_m);
     let painter = ui.painter_at(rect);
-    painter.rect_filled(rect, 6.0, Color32::from_gray(28));
+    painter.rect_filled(rect, 6.0, Color32::from_gray(40));
     let (lo, hi) = (to_px(-RANGE_HALF_M), to_px(RANGE_HALF_M));
     painter.rect_stroke(
         Rect::from_x_y_ranges(lo..=hi, rect.top() + 4.0..=rect.bottom() - 4.0),
