@@ -68,6 +68,9 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Fits friction parameters to recorded motion and force (seed 002);
+    /// prints JSON with a `protocol_model` block for a protocol.
+    Identify(IdentifyArgs),
     /// Lists serial ports.
     Ports,
     /// Runs an emulated device (the simulated apparatus) on a serial port,
@@ -122,6 +125,35 @@ struct RunArgs {
     /// long, s.
     #[arg(long, default_value_t = 10.0)]
     device_timeout: f64,
+}
+
+#[derive(Debug, clap::Args)]
+struct IdentifyArgs {
+    /// CSV with t_s, x_m and/or v_m_s, optional a_m_s2, and applied_force_n
+    /// (or force_n, the force on the hand): a render of the servo-sinusoid
+    /// scenario or a session's device stream reads as it is.
+    data: PathBuf,
+    /// `karnopp` or `dahl`.
+    #[arg(long)]
+    model: String,
+    /// Zero-velocity band DV: samples with |v| <= DV are left out, m/s.
+    /// The default, 0.03, also leaves out the presliding around reversals
+    /// (see `frictionlab::identify::DEFAULT_DV_M_S`).
+    #[arg(long, default_value_t = crate::identify::DEFAULT_DV_M_S)]
+    dv: f64,
+    /// Velocity noise SD for the Karnopp correction, m/s (default:
+    /// estimated from the data; give both SDs or neither).
+    #[arg(long)]
+    vel_sd: Option<f64>,
+    /// Acceleration noise SD for the Karnopp correction, m/s^2.
+    #[arg(long)]
+    acc_sd: Option<f64>,
+    /// Dahl: the fixed rest stiffness sigma, N/m.
+    #[arg(long, default_value_t = 2e4)]
+    sigma: f64,
+    /// Dahl: the fixed shape exponent.
+    #[arg(long, default_value_t = 1.0)]
+    exponent: f64,
 }
 
 #[derive(Debug, clap::Args)]
@@ -218,6 +250,7 @@ pub fn main() -> ExitCode {
         Command::Run(args) => run_command(&args),
         Command::Simulate(args) => simulate_command(&args),
         Command::Analyze { dir, out } => analyze_command(&dir, out.as_deref()),
+        Command::Identify(args) => identify_command(&args),
         Command::Ports => ports_command(),
         Command::DeviceEmulator { path } => emulator_command(&path),
         Command::Schema { which } => {
@@ -350,6 +383,73 @@ fn device_failure(place: &str, message: impl Into<String>) -> Failure {
         code: EXIT_DEVICE,
         errors: vec![UserError::new(place, message)],
     }
+}
+
+fn identify_command(args: &IdentifyArgs) -> Result<(), Failure> {
+    use crate::identify;
+    let mut errors = Vec::new();
+    if args.model != "karnopp" && args.model != "dahl" {
+        errors.push(UserError::new(
+            "--model",
+            format!("'{}': 'karnopp' or 'dahl'", args.model),
+        ));
+    }
+    let positive = |name: &str, v: f64, errors: &mut Vec<UserError>| {
+        if !(v.is_finite() && v > 0.0) {
+            errors.push(UserError::new(
+                name,
+                format!("must be a number greater than 0, got {v}"),
+            ));
+        }
+    };
+    positive("--sigma", args.sigma, &mut errors);
+    positive("--exponent", args.exponent, &mut errors);
+    if !(args.dv.is_finite() && args.dv >= 0.0) {
+        errors.push(UserError::new(
+            "--dv",
+            format!("must be a number of at least 0, got {}", args.dv),
+        ));
+    }
+    let noise = match (args.vel_sd, args.acc_sd) {
+        (Some(v), Some(a)) => {
+            for (name, x) in [("--vel-sd", v), ("--acc-sd", a)] {
+                if !(x.is_finite() && x >= 0.0) {
+                    errors.push(UserError::new(
+                        name,
+                        format!("must be a number of at least 0, got {x}"),
+                    ));
+                }
+            }
+            Some((v, a))
+        }
+        (None, None) => None,
+        _ => {
+            errors.push(UserError::new(
+                "--vel-sd/--acc-sd",
+                "give both noise SDs, or neither to estimate them",
+            ));
+            None
+        }
+    };
+    if !errors.is_empty() {
+        return Err(errors.into());
+    }
+    let failure =
+        |e: identify::IdentifyError| -> Failure { vec![UserError::new(e.place, e.message)].into() };
+    let record = identify::read_csv(&args.data).map_err(failure)?;
+    let file = args.data.display().to_string();
+    let json = if args.model == "karnopp" {
+        let fit = identify::fit_karnopp(&record, args.dv, noise).map_err(failure)?;
+        let model = identify::karnopp_model(&fit.corrected);
+        identify::report_json(&file, &record, &serde_json::json!(fit), &model)
+    } else {
+        let fit =
+            identify::fit_dahl(&record, args.sigma, args.exponent, args.dv).map_err(failure)?;
+        let model = identify::dahl_model(&fit);
+        identify::report_json(&file, &record, &serde_json::json!(fit), &model)
+    };
+    println!("{json}");
+    Ok(())
 }
 
 /// Opens the experimenter window; without a display, says so (exit 2).

@@ -10,6 +10,7 @@ pub mod cli;
 pub mod device;
 pub mod friction;
 pub mod gui;
+pub mod identify;
 pub mod live;
 pub mod participant;
 pub mod protocol;

@@ -10,12 +10,16 @@ use plotters::prelude::*;
 
 use crate::scenario::Sample;
 
-/// The CSV columns, in order; `vibration` only for tactile models.
+/// The CSV columns, in order; `vibration` only for tactile models,
+/// `a_m_s2` and `applied_force_n` only for identification runs.
 #[must_use]
-pub fn columns(vibration: bool) -> Vec<&'static str> {
+pub fn columns(vibration: bool, applied: bool) -> Vec<&'static str> {
     let mut c = vec!["t_s", "x_m", "v_m_s", "force_n", "state", "slip_onset"];
     if vibration {
         c.push("vibration");
+    }
+    if applied {
+        c.extend(["a_m_s2", "applied_force_n"]);
     }
     c
 }
@@ -24,7 +28,8 @@ pub fn columns(vibration: bool) -> Vec<&'static str> {
 /// round-trip number formatting, so equal runs give equal bytes).
 #[must_use]
 pub fn csv(samples: &[Sample], vibration: bool) -> String {
-    let mut out = columns(vibration).join(",");
+    let applied = samples.first().is_some_and(|s| s.applied.is_some());
+    let mut out = columns(vibration, applied).join(",");
     out.push('\n');
     for s in samples {
         let _ = write!(
@@ -39,6 +44,9 @@ pub fn csv(samples: &[Sample], vibration: bool) -> String {
         );
         if vibration {
             let _ = write!(out, ",{}", s.vibration);
+        }
+        if let Some((a, f)) = s.applied {
+            let _ = write!(out, ",{a},{f}");
         }
         out.push('\n');
     }

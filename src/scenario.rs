@@ -122,6 +122,36 @@ impl Default for CoupledBlock {
     }
 }
 
+/// Seed 002's identification run (STUDIES 1e): the apparatus's servo moves
+/// the slide, with the surface's friction (the model) acting on it, along
+/// `x = -A cos(2 pi f t)`. The applied (motor) force is what moves the slide's
+/// mass against the friction: `F_applied = m a - force_n`, with `force_n` the
+/// model's force on the slide. Rendered samples carry `a_m_s2` and
+/// `applied_force_n`, the input `frictionlab identify` reads.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct ServoSinusoid {
+    /// Amplitude A, m. Default 0.01 (within the 32 mm range).
+    pub amplitude_m: f64,
+    /// Frequency, Hz. Default 2 (seed 002's noise SDs are at 2 Hz).
+    pub frequency_hz: f64,
+    /// Number of cycles. Default 20 (10 s).
+    pub cycles: f64,
+    /// Moving mass of motor and slide, kg. Default 0.692 (seed 002 Table 2).
+    pub slide_mass_kg: f64,
+}
+
+impl Default for ServoSinusoid {
+    fn default() -> Self {
+        ServoSinusoid {
+            amplitude_m: 0.01,
+            frequency_hz: 2.0,
+            cycles: 20.0,
+            slide_mass_kg: 0.692,
+        }
+    }
+}
+
 /// A scenario and its parameters, tagged by name.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(tag = "scenario", rename_all = "kebab-case")]
@@ -132,11 +162,18 @@ pub enum ScenarioParams {
     SinusoidalStroke(SinusoidalStroke),
     /// Seed 002's coupled block.
     CoupledBlock(CoupledBlock),
+    /// Seed 002's identification run.
+    ServoSinusoid(ServoSinusoid),
 }
 
 impl ScenarioParams {
     /// Every scenario name.
-    pub const NAMES: [&'static str; 3] = ["spidar-slide", "sinusoidal-stroke", "coupled-block"];
+    pub const NAMES: [&'static str; 4] = [
+        "spidar-slide",
+        "sinusoidal-stroke",
+        "coupled-block",
+        "servo-sinusoid",
+    ];
 
     /// The default parameters of the scenario called `name`.
     #[must_use]
@@ -145,6 +182,7 @@ impl ScenarioParams {
             "spidar-slide" => Self::SpidarSlide(SpidarSlide::default()),
             "sinusoidal-stroke" => Self::SinusoidalStroke(SinusoidalStroke::default()),
             "coupled-block" => Self::CoupledBlock(CoupledBlock::default()),
+            "servo-sinusoid" => Self::ServoSinusoid(ServoSinusoid::default()),
             _ => return None,
         })
     }
@@ -156,6 +194,7 @@ impl ScenarioParams {
             Self::SpidarSlide(_) => "spidar-slide",
             Self::SinusoidalStroke(_) => "sinusoidal-stroke",
             Self::CoupledBlock(_) => "coupled-block",
+            Self::ServoSinusoid(_) => "servo-sinusoid",
         }
     }
 
@@ -181,6 +220,12 @@ impl ScenarioParams {
                 non_negative("reach_m", s.reach_m),
                 positive("move_s", s.move_s),
                 non_negative("dwell_s", s.dwell_s),
+            ]),
+            Self::ServoSinusoid(s) => collect([
+                non_negative("amplitude_m", s.amplitude_m),
+                positive("frequency_hz", s.frequency_hz),
+                non_negative("cycles", s.cycles),
+                positive("slide_mass_kg", s.slide_mass_kg),
             ]),
         }
     }
@@ -215,6 +260,8 @@ pub struct Sample {
     pub phase: Phase,
     /// A stick-to-slip transition happened at this step.
     pub slip_onset: bool,
+    /// Identification runs only: (acceleration m/s^2, applied force N).
+    pub applied: Option<(f64, f64)>,
 }
 
 impl Sample {
@@ -229,6 +276,7 @@ impl Sample {
             vibration: output.vibration,
             phase: output.phase,
             slip_onset: output.slip_onset,
+            applied: None,
         }
     }
 }
@@ -286,6 +334,27 @@ pub fn run(
             let total = f64::from(s.reaches) * cycle + s.dwell_s;
             let steps = steps_for(total, dt)?;
             Ok(kinematic(&mut friction, dt, steps, |t| reaches(s, t)))
+        }
+        ScenarioParams::ServoSinusoid(s) => {
+            let steps = steps_for(s.cycles / s.frequency_hz, dt)?;
+            let omega = std::f64::consts::TAU * s.frequency_hz;
+            let motion = |t: f64| {
+                let (sin, cos) = (omega * t).sin_cos();
+                (
+                    -s.amplitude_m * cos,
+                    s.amplitude_m * omega * sin,
+                    s.amplitude_m * omega * omega * cos,
+                )
+            };
+            let mut samples = kinematic(&mut friction, dt, steps, |t| {
+                let (x, v, _) = motion(t);
+                (x, v)
+            });
+            for sample in &mut samples {
+                let (_, _, a) = motion(sample.t_s);
+                sample.applied = Some((a, s.slide_mass_kg * a - sample.force_n));
+            }
+            Ok(samples)
         }
     }
 }

@@ -269,7 +269,8 @@ fn models_lists_every_model_and_scenario_with_defaults() {
     assert!(o.status.success());
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["models"].as_array().unwrap().len(), 8);
-    assert_eq!(v["scenarios"].as_array().unwrap().len(), 3);
+    assert_eq!(v["scenarios"].as_array().unwrap().len(), 4);
+    assert_eq!(v["scenarios"][3]["scenario"], "servo-sinusoid");
     assert_eq!(v["models"][4]["model"], "karnopp");
     assert_eq!(v["models"][4]["f_dynamic_n"], 2.0);
 }
