@@ -27,6 +27,7 @@ fn study(text: &str, root: &std::path::Path) -> f64 {
         10,
         1,
         None,
+        false,
         &mut |_| {},
     )
     .map_or(0.0, |outcomes| outcomes.iter().map(|o| o.simulated_s).sum())

@@ -173,6 +173,11 @@ struct SimulateArgs {
     /// as possible).
     #[arg(long)]
     pace: Option<f64>,
+    /// Record each trial's device stream in `streams/` (as `run` and the
+    /// window always do; off by default here: a whole simulated study at
+    /// 5 kHz is gigabytes).
+    #[arg(long)]
+    streams: bool,
 }
 
 #[derive(Debug, clap::Args)]
@@ -628,6 +633,7 @@ fn run_command(args: &RunArgs) -> Result<(), Failure> {
         resume: args.resume,
         pace: Some(args.pace),
         device: &args.device,
+        streams: true,
     };
     let outcome = if args.device == "sim" {
         runner::run_simulated(&dir, &req, &mut |_, _| {})?
@@ -706,6 +712,7 @@ fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
         args.participants,
         args.seed,
         args.pace,
+        args.streams,
         &mut |done| {
             bar.set_position(done as u64);
         },

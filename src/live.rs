@@ -35,7 +35,9 @@ use crate::device::wire::Message;
 use crate::friction::ForceLimit;
 use crate::protocol::engine::{Action, Engine, Input, Question, Screen, Status};
 use crate::results::{LogLine, ReadLog, ResultsDir, ResultsError, SessionLog};
-use crate::runner::{HAND_EVERY_S, Prepared, SessionRequest, loop_rate_hz, prepare, write_record};
+use crate::runner::{
+    HAND_EVERY_S, Prepared, SessionRequest, StreamRecorder, loop_rate_hz, prepare, write_record,
+};
 
 /// The hand a mouse drives on the simulated device: a spring-damper pulling
 /// the device towards the pointer; with the pointer away, the hand only
@@ -227,6 +229,7 @@ pub struct LiveSession {
     log: SessionLog,
     read: ReadLog,
     csv: PathBuf,
+    streams: StreamRecorder,
     session: u32,
     device: Device,
     device_label: String,
@@ -263,6 +266,7 @@ impl LiveSession {
             start_time,
             session,
             csv,
+            streams,
             ..
         } = prepare(dir, req, "gui")?;
         let device = match device {
@@ -291,6 +295,7 @@ impl LiveSession {
             log,
             read,
             csv,
+            streams,
             session,
             device,
             device_label: req.device.to_owned(),
@@ -345,6 +350,9 @@ impl LiveSession {
                 - MOUSE_HAND_DAMPING_N_S_M * self.sample.v_m_s;
             self.sample = device.step(*dt, hand);
             self.t += *dt;
+            if self.engine.in_trial() {
+                self.streams.push(self.t, &self.sample);
+            }
             self.trace.observe(self.t, &self.sample);
             if self.timers.iter().any(|&w| w <= self.t) {
                 self.timers.retain(|&w| w > self.t);
@@ -390,6 +398,9 @@ impl LiveSession {
                 force_n: tick.force_n,
                 vibration: tick.vibration,
             };
+            if self.engine.in_trial() {
+                self.streams.push(self.t, &self.sample);
+            }
             if tick.button && !*button {
                 clicks.push(tick.x_m);
             }
@@ -479,7 +490,13 @@ impl LiveSession {
                 self.view.question = None;
             }
             Action::Record(record) => {
-                write_record(&mut self.log, &mut self.read, &self.csv, &record)?;
+                write_record(
+                    &mut self.log,
+                    &mut self.read,
+                    &self.csv,
+                    &mut self.streams,
+                    &record,
+                )?;
                 self.view.question = None;
                 self.view.refused = None;
                 if !record.requeued {

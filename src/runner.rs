@@ -10,6 +10,7 @@
 //! exactly what an uninterrupted one would.
 
 use std::collections::VecDeque;
+use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -44,6 +45,8 @@ pub struct SessionRequest<'a> {
     pub pace: Option<f64>,
     /// The device, as logged: `sim`, or the serial port's path.
     pub device: &'a str,
+    /// Record each trial's device stream (`streams/`, see [`StreamRecorder`]).
+    pub streams: bool,
 }
 
 /// How a session went.
@@ -78,6 +81,7 @@ pub(crate) struct Prepared {
     pub(crate) csv: PathBuf,
     pub(crate) resumed_at: Option<usize>,
     pub(crate) torn_bytes: u64,
+    pub(crate) streams: StreamRecorder,
 }
 
 /// Opens the session's log: a new session (header, empty CSV) or the
@@ -129,6 +133,7 @@ pub(crate) fn prepare(
             csv: last.csv.clone(),
             resumed_at: Some(start_at),
             torn_bytes: torn,
+            streams: StreamRecorder::new(dir, &read.header, req.streams),
             read,
         });
     }
@@ -165,6 +170,7 @@ pub(crate) fn prepare(
     Ok(Prepared {
         plan,
         log,
+        streams: StreamRecorder::new(dir, &read.header, req.streams),
         read,
         start_at: 0,
         start_time: 0.0,
@@ -175,14 +181,79 @@ pub(crate) fn prepare(
     })
 }
 
-/// Puts a trial record on disk: appended to the log and fsync'd, then the
-/// CSV rewritten from the log. Only after this may the next trial start.
+/// Records each trial's device stream at the loop rate and writes it, when
+/// the trial ends, to
+/// `streams/study-<P>_subject-<S>_session-<n>_trial-<k>_run-<r>_stream.csv`
+/// (`k` the planned trial index, `r` its presentation: 1, or more for a
+/// re-queued trial). Columns `t_s,x_m,v_m_s,force_n,vibration`: session
+/// time, device position and velocity, rendered force on the hand, and
+/// vibrotactile drive (SI units), readable by `frictionlab identify`.
+#[derive(Debug, Clone, Default)]
+pub struct StreamRecorder {
+    stem: Option<PathBuf>,
+    rows: Vec<[f64; 5]>,
+}
+
+impl StreamRecorder {
+    /// A recorder for the session of `header` (`on`: record at all).
+    #[must_use]
+    pub fn new(dir: &ResultsDir, header: &crate::results::Header, on: bool) -> Self {
+        let files = dir.files(&header.protocol_id, &header.participant, header.session);
+        let stem = files
+            .csv
+            .file_name()
+            .map(|n| n.to_string_lossy().trim_end_matches("_data.csv").to_owned());
+        StreamRecorder {
+            stem: stem
+                .filter(|_| on)
+                .map(|s| dir.root().join("streams").join(s)),
+            rows: Vec::new(),
+        }
+    }
+
+    /// Adds a sample of the trial under way.
+    pub fn push(&mut self, t_s: f64, s: &DeviceSample) {
+        if self.stem.is_some() {
+            self.rows
+                .push([t_s, s.x_m, s.v_m_s, s.force_n, s.vibration]);
+        }
+    }
+
+    /// Writes the trial's stream (whole, fsync'd) and starts afresh.
+    fn write(&mut self, trial: usize, run: usize) -> Result<(), ResultsError> {
+        let rows = std::mem::take(&mut self.rows);
+        let Some(stem) = &self.stem else {
+            return Ok(());
+        };
+        let mut text = String::with_capacity(rows.len() * 64 + 40);
+        text.push_str("t_s,x_m,v_m_s,force_n,vibration\n");
+        for r in &rows {
+            let _ = writeln!(text, "{},{},{},{},{}", r[0], r[1], r[2], r[3], r[4]);
+        }
+        let path = PathBuf::from(format!(
+            "{}_trial-{trial}_run-{run}_stream.csv",
+            stem.display()
+        ));
+        replace_file(&path, text.as_bytes(), true)
+    }
+}
+
+/// Puts a trial record on disk: its device stream (if recorded), then the
+/// record appended to the log and fsync'd, then the CSV rewritten from the
+/// log. Only after this may the next trial start.
 pub(crate) fn write_record(
     log: &mut SessionLog,
     read: &mut ReadLog,
     csv: &std::path::Path,
+    streams: &mut StreamRecorder,
     record: &crate::protocol::engine::TrialRecord,
 ) -> Result<(), ResultsError> {
+    let run = 1 + read
+        .trials
+        .iter()
+        .filter(|r| r.trial == record.trial)
+        .count();
+    streams.write(record.trial, run)?;
     log.append(&LogLine::Trial(record.clone()))?;
     read.trials.push(record.clone());
     replace_file(csv, data_csv(read).as_bytes(), false)
@@ -250,6 +321,7 @@ pub fn run_simulated(
         csv,
         resumed_at,
         torn_bytes,
+        mut streams,
     } = prepare(dir, req, "sim")?;
     let total = plan.trials.len();
     let seed = read.header.plan_seed;
@@ -280,7 +352,7 @@ pub fn run_simulated(
                 Action::Physical(model) => device.set_physical(model.as_ref()),
                 Action::WakeAt(at) => timers.push(*at),
                 Action::Record(record) => {
-                    write_record(&mut log, &mut read, &csv, record)?;
+                    write_record(&mut log, &mut read, &csv, &mut streams, record)?;
                     pending.push_back(Input::Recorded);
                     progress(record.trial + 1, total);
                 }
@@ -315,6 +387,9 @@ pub fn run_simulated(
         let force = participant.hand_force(t, dt, &sample);
         sample = device.step(dt, force);
         t += dt;
+        if engine.in_trial() {
+            streams.push(t, &sample);
+        }
         ticks += 1;
         let reaction = participant.decide(t, &sample);
         apply(reaction, &mut device, &mut sample, &mut pending);
@@ -348,6 +423,10 @@ pub fn participant_seed(seed: u64, i: u32) -> u64 {
 ///
 /// # Errors
 /// As [`run_simulated`].
+#[expect(
+    clippy::too_many_arguments,
+    reason = "one argument per `simulate` option"
+)]
 pub fn simulate_participants(
     dir: &ResultsDir,
     protocol: &Protocol,
@@ -355,6 +434,7 @@ pub fn simulate_participants(
     participants: u32,
     seed: u64,
     pace: Option<f64>,
+    streams: bool,
     progress: &mut dyn FnMut(usize),
 ) -> Result<Vec<SessionOutcome>, ResultsError> {
     let mut done = 0;
@@ -370,6 +450,7 @@ pub fn simulate_participants(
                 resume: false,
                 pace,
                 device: "sim",
+                streams,
             };
             let before = done;
             let outcome = run_simulated(dir, &req, &mut |trial, _| progress(before + trial))?;
@@ -453,6 +534,7 @@ pub fn run_device(
         csv,
         resumed_at,
         torn_bytes,
+        mut streams,
         ..
     } = prepare(dir, req, "sim")?;
     let total = plan.trials.len();
@@ -504,6 +586,9 @@ pub fn run_device(
                 force_n: tick.force_n,
                 vibration: tick.vibration,
             };
+            if engine.in_trial() {
+                streams.push(t, &sample);
+            }
             let reaction = participant.decide(t, &sample);
             pending.extend(reaction.inputs);
             if t - last_hand >= HAND_EVERY_S {
@@ -528,7 +613,7 @@ pub fn run_device(
                         Action::WakeAt(at) => timers.push(*at),
                         Action::Record(record) => {
                             trial_live = false;
-                            write_record(&mut log, &mut read, &csv, record)?;
+                            write_record(&mut log, &mut read, &csv, &mut streams, record)?;
                             pending.push_back(Input::Recorded);
                             progress(record.trial + 1, total);
                         }

@@ -53,6 +53,7 @@ fn check(study: &str, participants: u32, seed: u64) {
         participants,
         seed,
         None,
+        false,
         &mut |_| {},
     )
     .unwrap();

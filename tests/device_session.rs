@@ -194,6 +194,7 @@ fn a_live_gui_session_runs_on_the_emulated_device() {
         resume: false,
         pace: None,
         device: &device,
+        streams: true,
     };
     let mut live = LiveSession::start(&results, &req, &DeviceChoice::Port(dev.clone())).unwrap();
     let start = Instant::now();

@@ -345,3 +345,58 @@ fn bad_input_names_the_place_and_exits_2() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("error: --model: 'lugre'"));
 }
+
+#[test]
+fn sessions_record_each_trials_device_stream_and_identify_reads_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("results");
+    let protocol = format!("{}/protocols/fitts-quick.json", env!("CARGO_MANIFEST_DIR"));
+    let status = bin()
+        .args([
+            "run",
+            &protocol,
+            "--participant",
+            "s1",
+            "--responder",
+            "sim",
+        ])
+        .args(["--pace", "1000", "--seed", "2", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(status.status.success(), "{status:?}");
+    let log = out.join("logs/study-fittsquick_subject-s1_session-1_log.jsonl");
+    let read = frictionlab::results::read_log(&log).unwrap();
+    assert_eq!(read.trials.len(), 4);
+    let mut identified = 0;
+    for r in &read.trials {
+        let path = out.join(format!(
+            "streams/study-fittsquick_subject-s1_session-1_trial-{}_run-1_stream.csv",
+            r.trial
+        ));
+        let text = std::fs::read_to_string(&path).unwrap();
+        let mut lines = text.lines();
+        assert_eq!(lines.next(), Some("t_s,x_m,v_m_s,force_n,vibration"));
+        let rows: Vec<Vec<f64>> = lines
+            .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+            .collect();
+        // Every loop tick of the trial, at 1 kHz.
+        let expected = (r.ended_s - r.started_s) * 1000.0;
+        assert!(
+            (rows.len() as f64 - expected).abs() <= 2.0,
+            "trial {}: {} rows for {expected} ticks",
+            r.trial,
+            rows.len()
+        );
+        assert!((rows[0][0] - r.started_s).abs() <= 1.5e-3);
+        let data = serde_json::to_value(&r.data).unwrap();
+        if data["condition"] == "high_stiction" {
+            let json = identify_json(&path, &["--model", "karnopp"]);
+            assert_eq!(json["rows"].as_u64(), u64::try_from(rows.len()).ok());
+            assert_eq!(json["signals"][0], "force: -force_n (force on the hand)");
+            assert!(json["fit"]["corrected"]["c_pos_n"]["value"].is_f64());
+            identified += 1;
+        }
+    }
+    assert_eq!(identified, 1, "the high_stiction trial's stream");
+}

@@ -43,6 +43,7 @@ fn simulate(name: &str, n: u32, seed: u64, edit: impl FnOnce(&mut Value)) -> Vec
         n,
         seed,
         None,
+        false,
         &mut |_| {},
     )
     .unwrap();

@@ -422,6 +422,7 @@ impl FrictionlabApp {
             resume,
             pace: None,
             device: &device,
+            streams: true,
         };
         let dir = ResultsDir::new(self.out.trim());
         let live =
