@@ -141,11 +141,11 @@ struct IdentifyArgs {
     /// (see `frictionlab::identify::DEFAULT_DV_M_S`).
     #[arg(long, default_value_t = crate::identify::DEFAULT_DV_M_S)]
     dv: f64,
-    /// Velocity noise SD for the Karnopp correction, m/s (default:
-    /// estimated from the data; give both SDs or neither).
+    /// Velocity noise SD for the errors-in-variables correction, m/s
+    /// (default: estimated from the data; give both SDs or neither).
     #[arg(long)]
     vel_sd: Option<f64>,
-    /// Acceleration noise SD for the Karnopp correction, m/s^2.
+    /// Acceleration noise SD for the errors-in-variables correction, m/s^2.
     #[arg(long)]
     acc_sd: Option<f64>,
     /// Dahl: the fixed rest stiffness sigma, N/m.
@@ -448,8 +448,8 @@ fn identify_command(args: &IdentifyArgs) -> Result<(), Failure> {
         let model = identify::karnopp_model(&fit.corrected);
         identify::report_json(&file, &record, &serde_json::json!(fit), &model)
     } else {
-        let fit =
-            identify::fit_dahl(&record, args.sigma, args.exponent, args.dv).map_err(failure)?;
+        let fit = identify::fit_dahl(&record, args.sigma, args.exponent, args.dv, noise)
+            .map_err(failure)?;
         let model = identify::dahl_model(&fit);
         identify::report_json(&file, &record, &serde_json::json!(fit), &model)
     };

@@ -305,6 +305,22 @@ pub fn noise_sd(y: &[f64]) -> f64 {
     (sum / count(y.len() - 2) / 6.0).sqrt()
 }
 
+/// The noise SDs as given, or estimated from the record.
+fn noise_of(rec: &Record, given: Option<(f64, f64)>) -> Noise {
+    match given {
+        Some((velocity_sd_m_s, acceleration_sd_m_s2)) => Noise {
+            velocity_sd_m_s,
+            acceleration_sd_m_s2,
+            source: "given",
+        },
+        None => Noise {
+            velocity_sd_m_s: noise_sd(&rec.v_m_s),
+            acceleration_sd_m_s2: noise_sd(&rec.a_m_s2),
+            source: "estimated",
+        },
+    }
+}
+
 /// A fitted value and its standard error.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Estimate {
@@ -381,18 +397,7 @@ pub fn fit_karnopp(
     dv: f64,
     noise: Option<(f64, f64)>,
 ) -> Result<KarnoppFit, IdentifyError> {
-    let noise = match noise {
-        Some((velocity_sd_m_s, acceleration_sd_m_s2)) => Noise {
-            velocity_sd_m_s,
-            acceleration_sd_m_s2,
-            source: "given",
-        },
-        None => Noise {
-            velocity_sd_m_s: noise_sd(&rec.v_m_s),
-            acceleration_sd_m_s2: noise_sd(&rec.a_m_s2),
-            source: "estimated",
-        },
-    };
+    let noise = noise_of(rec, noise);
     let rows = karnopp_rows(rec, dv)?;
     let mut xtx = SMatrix::<f64, 5, 5>::zeros();
     let mut xtf = SVector::<f64, 5>::zeros();
@@ -488,9 +493,9 @@ fn karnopp_rows(rec: &Record, dv: f64) -> Result<Rows, IdentifyError> {
     })
 }
 
-/// A Dahl identification.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct DahlFit {
+/// Dahl parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct DahlEstimates {
     /// Moving mass m, kg.
     pub mass_kg: Estimate,
     /// Coulomb level towards +x, N.
@@ -499,18 +504,34 @@ pub struct DahlFit {
     pub fc_neg_n: Estimate,
     /// Viscous term b, N s/m.
     pub viscous_n_s_m: Estimate,
+    /// RMS of the residual force, N.
+    pub residual_rms_n: f64,
+}
+
+/// A Dahl identification.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DahlFit {
+    /// The errors-in-variables estimate: the least-squares solution refined
+    /// by Gauss-Newton steps on the corrected objective.
+    pub corrected: DahlEstimates,
+    /// Levenberg-Marquardt's least-squares estimate.
+    pub least_squares: DahlEstimates,
+    /// The noise corrected for.
+    pub noise: Noise,
     /// The fixed rest stiffness sigma, N/m.
     pub sigma_n_m: f64,
     /// The fixed shape exponent.
     pub exponent: f64,
-    /// RMS of the residual force, N.
-    pub residual_rms_n: f64,
     /// Levenberg-Marquardt's verdict.
     pub converged: bool,
     /// Why it stopped.
     pub termination: String,
     /// Residual evaluations.
     pub evaluations: usize,
+    /// Whether the corrected refinement's steps shrank below 1e-9 relative.
+    pub corrected_converged: bool,
+    /// Gauss-Newton steps of the refinement.
+    pub corrected_iterations: usize,
     /// Samples fitted.
     pub samples: usize,
 }
@@ -607,8 +628,17 @@ impl LeastSquaresProblem<f64, Dyn, U4> for DahlProblem<'_> {
 
 /// Fits `F = m a + F_dahl(x; sigma, Fc+, Fc-, i) + b v` by
 /// Levenberg-Marquardt over m, Fc+, Fc- and b, with `sigma` and the
-/// exponent fixed. It starts from the Karnopp fit's plain estimates (band
-/// `dv`). Standard errors from the Jacobian at the solution: `s^2 (J^T J)^-1`.
+/// exponent fixed, starting from the Karnopp fit's plain estimates (band
+/// `dv`).
+///
+/// Noise on `a` and `v` biases least squares as in the Karnopp form (the
+/// mass is attenuated, and the Dahl levels and b absorb the rest). The
+/// corrected estimate minimises `sum r^2 - N (m^2 s_acc^2 + b^2 s_vel^2)`,
+/// the expected noise part taken out, by Gauss-Newton steps from the
+/// least-squares solution: `p -= (J^T J - N S)^-1 (J^T r - N S p)` with
+/// `S = diag(s_acc^2, 0, 0, s_vel^2)`. Standard errors: `s^2 (J^T J)^-1`
+/// for least squares, the sandwich `s^2 H^-1 J^T J H^-1`, `H = J^T J - N S`,
+/// for the corrected estimate.
 ///
 /// # Errors
 /// As [`fit_karnopp`] for the start; a singular Jacobian.
@@ -617,7 +647,9 @@ pub fn fit_dahl(
     sigma: f64,
     exponent: f64,
     dv: f64,
+    noise: Option<(f64, f64)>,
 ) -> Result<DahlFit, IdentifyError> {
+    let noise = noise_of(rec, noise);
     let start = fit_karnopp(rec, dv, Some((0.0, 0.0)))?.plain_least_squares;
     let p0 = Vector4::new(
         start.mass_kg.value,
@@ -633,34 +665,70 @@ pub fn fit_dahl(
         fd: Vec::new(),
     };
     problem.set_params(&p0);
-    let (problem, report) = LevenbergMarquardt::new().minimize(problem);
-    let p = problem.p;
-    let r = problem.residual_vec(&problem.fd, &p);
-    let n = count(r.len());
-    let rss = r.norm_squared();
-    let jac = problem
-        .jacobian()
-        .ok_or_else(|| err("identify", "no Jacobian"))?;
-    let cov = (jac.transpose() * &jac)
-        .try_inverse()
-        .ok_or_else(|| err("identify", "the Dahl fit's Jacobian is singular"))?;
-    let s2 = rss / (n - 4.0).max(1.0);
-    let e = |i: usize| Estimate {
-        value: p[i],
-        std_error: (s2 * cov[(i, i)]).max(0.0).sqrt(),
+    let (mut problem, report) = LevenbergMarquardt::new().minimize(problem);
+    let singular = || err("identify", "the Dahl fit's Jacobian is singular");
+    let n = count(rec.t_s.len());
+    let s = nalgebra::Matrix4::from_diagonal(&Vector4::new(
+        n * noise.acceleration_sd_m_s2.powi(2),
+        0.0,
+        0.0,
+        n * noise.velocity_sd_m_s.powi(2),
+    ));
+    let estimates = |problem: &DahlProblem<'_>, corrected: bool| {
+        let p = problem.p;
+        let r = problem.residual_vec(&problem.fd, &p);
+        let jac = problem.jacobian().ok_or_else(singular)?;
+        let jtj = jac.transpose() * &jac;
+        let inv = jtj.try_inverse().ok_or_else(singular)?;
+        let cov = if corrected {
+            let h = (jtj - s).try_inverse().ok_or_else(singular)?;
+            h * jtj * h
+        } else {
+            inv
+        };
+        let rss = r.norm_squared();
+        let s2 = rss / (n - 4.0).max(1.0);
+        let e = |i: usize| Estimate {
+            value: p[i],
+            std_error: (s2 * cov[(i, i)]).max(0.0).sqrt(),
+        };
+        Ok::<_, IdentifyError>(DahlEstimates {
+            mass_kg: e(0),
+            fc_pos_n: e(1),
+            fc_neg_n: e(2),
+            viscous_n_s_m: e(3),
+            residual_rms_n: (rss / n).sqrt(),
+        })
     };
+    let least_squares = estimates(&problem, false)?;
+    let (mut corrected_converged, mut corrected_iterations) = (false, 0);
+    for _ in 0..30 {
+        let p = problem.p;
+        let r = problem.residual_vec(&problem.fd, &p);
+        let jac = problem.jacobian().ok_or_else(singular)?;
+        let h = (jac.transpose() * &jac - s)
+            .try_inverse()
+            .ok_or_else(singular)?;
+        let step = h * (jac.transpose() * r - s * p);
+        problem.set_params(&(p - step));
+        corrected_iterations += 1;
+        if step.norm() <= 1e-9 * p.norm().max(1e-9) {
+            corrected_converged = true;
+            break;
+        }
+    }
     Ok(DahlFit {
-        mass_kg: e(0),
-        fc_pos_n: e(1),
-        fc_neg_n: e(2),
-        viscous_n_s_m: e(3),
+        corrected: estimates(&problem, true)?,
+        least_squares,
+        noise,
         sigma_n_m: sigma,
         exponent,
-        residual_rms_n: (rss / n).sqrt(),
         converged: report.termination.was_successful(),
         termination: format!("{:?}", report.termination),
         evaluations: report.number_of_evaluations,
-        samples: r.len(),
+        corrected_converged,
+        corrected_iterations,
+        samples: rec.t_s.len(),
     })
 }
 
@@ -683,15 +751,17 @@ pub fn karnopp_model(fit: &KarnoppEstimates) -> ModelParams {
     })
 }
 
-/// A protocol `model` block for a Dahl fit (sigma and exponent as fixed).
+/// A protocol `model` block for a Dahl fit's corrected estimate (sigma and
+/// exponent as fixed).
 #[must_use]
 pub fn dahl_model(fit: &DahlFit) -> ModelParams {
+    let c = &fit.corrected;
     ModelParams::Dahl(DahlParams {
         sigma_n_m: fit.sigma_n_m,
-        fc_pos_n: fit.fc_pos_n.value.max(0.0),
-        fc_neg_n: fit.fc_neg_n.value.max(0.0),
+        fc_pos_n: c.fc_pos_n.value.max(0.0),
+        fc_neg_n: c.fc_neg_n.value.max(0.0),
         exponent: fit.exponent,
-        viscous_n_s_m: fit.viscous_n_s_m.value.max(0.0),
+        viscous_n_s_m: c.viscous_n_s_m.value.max(0.0),
         ..DahlParams::default()
     })
 }

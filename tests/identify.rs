@@ -221,18 +221,35 @@ fn dahl_fit_recovers_fc_within_5_percent_under_seed_noise() {
     let clean = identify::read_csv(&render(dir.path(), "dahl", &[])).unwrap();
     let data = dir.path().join("noisy.csv");
     write_csv(&data, &noisy(&clean, 2));
-    let json = identify_json(&data, &["--model", "dahl", "--sigma", "20000"]);
+    let json = identify_json(
+        &data,
+        &[
+            "--model", "dahl", "--sigma", "20000", "--vel-sd", "3.18e-3", "--acc-sd", "0.2379",
+        ],
+    );
     let fit = &json["fit"];
     eprintln!("dahl fit: {fit}");
     assert_eq!(fit["converged"], true);
+    assert_eq!(fit["corrected_converged"], true);
+    let v = |which: &str, k: &str| fit[which][k]["value"].as_f64().unwrap();
     for k in ["fc_pos_n", "fc_neg_n"] {
-        let v = fit[k]["value"].as_f64().unwrap();
-        assert!(within(v, 2.0, 0.05), "{k} = {v}");
+        assert!(
+            within(v("corrected", k), 2.0, 0.05),
+            "{k} = {}",
+            v("corrected", k)
+        );
+        assert!(fit["corrected"][k]["std_error"].as_f64().unwrap() > 0.0);
     }
-    // Levenberg-Marquardt is plain least squares: the acceleration noise
-    // attenuates the mass (by about var(a) / (var(a) + s_acc^2) = 0.96 here).
-    let m = fit["mass_kg"]["value"].as_f64().unwrap();
-    assert!(within(m, 0.692, 0.1), "mass {m}");
+    // Least squares attenuates the mass (the acceleration noise); the
+    // correction restores it, and with it b.
+    assert!(v("least_squares", "mass_kg") < 0.692 * 0.97);
+    assert!(
+        within(v("corrected", "mass_kg"), 0.692, 0.02),
+        "{}",
+        v("corrected", "mass_kg")
+    );
+    let b_error = |which: &str| (v(which, "viscous_n_s_m") - 0.5).abs();
+    assert!(b_error("corrected") < b_error("least_squares"));
     let model: ModelParams = serde_json::from_value(json["protocol_model"].clone()).unwrap();
     assert!(model.validate().is_empty());
 }
