@@ -33,10 +33,11 @@ use crate::device::link::LinkState;
 use crate::device::sim::{Apparatus, SimDevice};
 use crate::device::wire::Message;
 use crate::friction::ForceLimit;
-use crate::protocol::engine::{Action, Engine, Input, Question, Screen, Status};
+use crate::protocol::engine::{Action, Engine, Input, Question, Screen};
 use crate::results::{LogLine, ReadLog, ResultsDir, ResultsError, SessionLog};
 use crate::runner::{
-    HAND_EVERY_S, Prepared, SessionRequest, StreamRecorder, loop_rate_hz, prepare, write_record,
+    HAND_EVERY_S, Prepared, SessionRequest, StreamRecorder, loop_rate_hz, prepare, write_end,
+    write_record,
 };
 
 /// The hand a mouse drives on the simulated device: a spring-damper pulling
@@ -507,24 +508,12 @@ impl LiveSession {
             Action::WakeAt(at) => self.timers.push(at),
             Action::Finished => {
                 self.stop_device()?;
-                let completed = self.completed();
-                self.log.append(&LogLine::End {
-                    completed,
-                    aborted: self.read.trials.len() - completed,
-                })?;
+                write_end(&mut self.log, &self.read)?;
                 self.phase = Phase::Finished;
                 self.view = View::default();
             }
         }
         Ok(())
-    }
-
-    fn completed(&self) -> usize {
-        self.read
-            .trials
-            .iter()
-            .filter(|r| r.status == Status::Completed)
-            .count()
     }
 
     fn stop_device(&mut self) -> Result<(), ResultsError> {

@@ -18,7 +18,7 @@ use crate::device::DeviceSample;
 use crate::device::sim::{Apparatus, SimDevice};
 use crate::participant::SimParticipant;
 use crate::protocol::Protocol;
-use crate::protocol::engine::{Action, Engine, Input, Status};
+use crate::protocol::engine::{Action, Engine, Input};
 use crate::protocol::plan::{Plan, resolve};
 use crate::results::{
     Header, LOG_FORMAT, LogLine, ReadLog, ResultsDir, ResultsError, SessionLog, data_csv,
@@ -259,6 +259,18 @@ pub(crate) fn write_record(
     replace_file(csv, data_csv(read).as_bytes(), false)
 }
 
+/// Ends the log after the last trial: the `end` line with the counts of
+/// completed and aborted trials, which it returns.
+pub(crate) fn write_end(
+    log: &mut SessionLog,
+    read: &ReadLog,
+) -> Result<(usize, usize), ResultsError> {
+    let completed = read.completed();
+    let aborted = read.trials.len() - completed;
+    log.append(&LogLine::End { completed, aborted })?;
+    Ok((completed, aborted))
+}
+
 /// Carries out a simulated participant's reaction on the simulated device:
 /// the hand (and device) move to rest at a home position if asked, and the
 /// inputs queue for the engine.
@@ -357,13 +369,7 @@ pub fn run_simulated(
                     progress(record.trial + 1, total);
                 }
                 Action::Finished => {
-                    let completed = read
-                        .trials
-                        .iter()
-                        .filter(|r| r.status == Status::Completed)
-                        .count();
-                    let aborted = read.trials.len() - completed;
-                    log.append(&LogLine::End { completed, aborted })?;
+                    let (completed, aborted) = write_end(&mut log, &read)?;
                     return Ok(SessionOutcome {
                         session,
                         completed,
@@ -548,12 +554,6 @@ pub fn run_device(
     let (mut t, mut last_hand) = (0.0_f64, f64::NEG_INFINITY);
     let mut lost_since: Option<f64> = Some(0.0);
     let mut trial_live = false;
-    let completed = |read: &ReadLog| {
-        read.trials
-            .iter()
-            .filter(|r| r.status == Status::Completed)
-            .count()
-    };
     loop {
         while let Some(tick) = haptic.recv() {
             t = tick.now_s;
@@ -574,7 +574,7 @@ pub fn run_device(
                     log.append(&LogLine::Loop(stats))?;
                     return Err(DeviceRunError::Lost {
                         timeout_s,
-                        completed: completed(&read),
+                        completed: read.completed(),
                     });
                 }
                 continue;
@@ -620,15 +620,11 @@ pub fn run_device(
                         Action::Finished => {
                             let stats = haptic.stop();
                             log.append(&LogLine::Loop(stats))?;
-                            let done = completed(&read);
-                            log.append(&LogLine::End {
-                                completed: done,
-                                aborted: read.trials.len() - done,
-                            })?;
+                            let (completed, aborted) = write_end(&mut log, &read)?;
                             return Ok(SessionOutcome {
                                 session,
-                                completed: done,
-                                aborted: read.trials.len() - done,
+                                completed,
+                                aborted,
                                 resumed_at,
                                 torn_bytes,
                                 simulated_s: t,

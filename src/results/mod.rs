@@ -413,6 +413,15 @@ pub struct ReadLog {
 }
 
 impl ReadLog {
+    /// Trials logged as completed.
+    #[must_use]
+    pub fn completed(&self) -> usize {
+        self.trials
+            .iter()
+            .filter(|r| r.status == crate::protocol::engine::Status::Completed)
+            .count()
+    }
+
     /// The first trial index not yet finally logged: where a resume starts.
     /// A trial is final when completed, or aborted and not re-queued.
     #[must_use]
