@@ -1,6 +1,7 @@
 //! The command line: parses arguments, calls the library, and is the one place
 //! that turns errors into `error: <where>: <what>` lines and exit codes.
 
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -258,19 +259,13 @@ pub fn main() -> ExitCode {
         Command::Identify(args) => identify_command(&args),
         Command::Ports => ports_command(),
         Command::DeviceEmulator { path } => emulator_command(&path),
-        Command::Schema { which } => {
-            if which == "log" {
-                print!("{}", crate::results::log_json_schema());
-            } else {
-                print!("{}", crate::protocol::json_schema());
-            }
-            Ok(())
-        }
-        Command::Render(args) => render_command(&args).map_err(Failure::from),
-        Command::Models => {
-            println!("{}", models_json());
-            Ok(())
-        }
+        Command::Schema { which } => emit(&if which == "log" {
+            crate::results::log_json_schema()
+        } else {
+            crate::protocol::json_schema()
+        }),
+        Command::Render(args) => render_command(&args),
+        Command::Models => emit(&format!("{}\n", models_json())),
     };
     finish(result)
 }
@@ -280,7 +275,7 @@ fn finish(result: Result<(), Failure>) -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(failure) => {
             for e in failure.errors {
-                eprintln!("{e}");
+                say(&e.to_string());
             }
             ExitCode::from(failure.code)
         }
@@ -289,6 +284,29 @@ fn finish(result: Result<(), Failure>) -> ExitCode {
 
 /// Exit code for an unexpected failure (an I/O error writing results).
 pub const EXIT_FAILURE: u8 = 1;
+
+/// Writes `text` to standard output. A reader that went away
+/// (`frictionlab ... | head`) is not an error: the rest is dropped and the
+/// command finishes its work (exit 0). Any other write error (a full disk
+/// behind `>`) is a failure, exit 1.
+fn emit(text: &str) -> Result<(), Failure> {
+    use std::io::Write as _;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(Failure {
+            code: EXIT_FAILURE,
+            errors: vec![UserError::new("stdout", e.to_string())],
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// Writes a line to standard error; a closed or broken standard error has
+/// nowhere left to be reported, so it is ignored.
+fn say(line: &str) {
+    use std::io::Write as _;
+    let _ = writeln!(std::io::stderr().lock(), "{line}");
+}
 
 /// Errors to print and the exit code.
 struct Failure {
@@ -339,13 +357,13 @@ fn validate_command(paths: &[PathBuf]) -> Result<(), Failure> {
         match load_protocol(path) {
             Ok((p, _)) => {
                 let plan = crate::protocol::plan::resolve(&p, 0, 0);
-                println!(
-                    "ok: {}: {} '{}', {} trials per session",
+                emit(&format!(
+                    "ok: {}: {} '{}', {} trials per session\n",
                     path.display(),
                     p.design.kind().as_str(),
                     p.id,
                     plan.trials.len()
-                );
+                ))?;
             }
             Err(e) => errors.extend(e),
         }
@@ -366,18 +384,17 @@ fn analyze_command(dir: &Path, out: Option<&Path>) -> Result<(), Failure> {
         errors: vec![UserError::new(path, message)],
     })?;
     for note in analysis.summary["notes"].as_array().into_iter().flatten() {
-        eprintln!("note: {}", note.as_str().unwrap_or_default());
+        say(&format!("note: {}", note.as_str().unwrap_or_default()));
     }
     let peak = peak_memory_mib()
         .map(|m| format!(", peak memory {m} MiB"))
         .unwrap_or_default();
-    println!(
-        "analysed {} -> {} (summary.json, report.html, {} tables as CSV and Parquet{peak})",
+    emit(&format!(
+        "analysed {} -> {} (summary.json, report.html, {} tables as CSV and Parquet{peak})\n",
         dir.display(),
         out.display(),
         analysis.tables.len()
-    );
-    Ok(())
+    ))
 }
 
 /// Exit code for a device problem the command could not ride out.
@@ -453,8 +470,7 @@ fn identify_command(args: &IdentifyArgs) -> Result<(), Failure> {
         let model = identify::dahl_model(&fit);
         identify::report_json(&file, &record, &serde_json::json!(fit), &model)
     };
-    println!("{json}");
-    Ok(())
+    emit(&format!("{json}\n"))
 }
 
 /// Opens the experimenter window; without a display, says so (exit 2).
@@ -494,16 +510,16 @@ fn gui_command(args: GuiArgs, start: Option<crate::gui::AutoStart>) -> Result<()
 fn ports_command() -> Result<(), Failure> {
     let ports = crate::device::list_ports().map_err(|e| device_failure("ports", e))?;
     if ports.is_empty() {
-        println!("no serial ports found");
+        return emit("no serial ports found\n");
     }
+    let mut lines = String::new();
     for p in ports {
-        println!("{}\t{}", p.path, p.kind);
+        let _ = writeln!(lines, "{}\t{}", p.path, p.kind);
     }
-    Ok(())
+    emit(&lines)
 }
 
 fn emulator_command(path: &Path) -> Result<(), Failure> {
-    use std::io::Write as _;
     let place = path.display().to_string();
     // A link left by an earlier emulator is replaced.
     if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
@@ -514,8 +530,7 @@ fn emulator_command(path: &Path) -> Result<(), Failure> {
             .timeout(std::time::Duration::from_millis(1))
             .open()
             .map_err(|e| device_failure(&place, format!("cannot open: {e}")))?;
-        println!("device emulator on {}", path.display());
-        let _ = std::io::stdout().flush();
+        emit(&format!("device emulator on {}\n", path.display()))?;
         crate::device::emulator::serve(&mut port, |_| {})
     } else {
         let (mut master, slave) = serialport::TTYPort::pair()
@@ -525,11 +540,10 @@ fn emulator_command(path: &Path) -> Result<(), Failure> {
             .map_err(|e| device_failure(&place, format!("cannot link: {e}")))?;
         let _ =
             serialport::SerialPort::set_timeout(&mut master, std::time::Duration::from_millis(1));
-        println!(
-            "device emulator on {} (pseudo-terminal {slave_name})",
+        emit(&format!(
+            "device emulator on {} (pseudo-terminal {slave_name})\n",
             path.display()
-        );
-        let _ = std::io::stdout().flush();
+        ))?;
         // Keep the slave end open: a pseudo-terminal's master reads fail once
         // every slave handle is closed.
         let result = crate::device::emulator::serve(&mut master, |_| {});
@@ -656,14 +670,14 @@ fn run_command(args: &RunArgs) -> Result<(), Failure> {
         }
     };
     if outcome.torn_bytes > 0 {
-        eprintln!(
+        say(&format!(
             "note: {}: a torn last line ({} bytes) was ignored and cut before resuming",
             outcome.log.display(),
             outcome.torn_bytes
-        );
+        ));
     }
-    println!(
-        "session {} of '{}': {} trials completed, {} aborted{} -> {}",
+    emit(&format!(
+        "session {} of '{}': {} trials completed, {} aborted{} -> {}\n",
         outcome.session,
         args.participant,
         outcome.completed,
@@ -673,8 +687,7 @@ fn run_command(args: &RunArgs) -> Result<(), Failure> {
             .map(|t| format!(" (resumed at trial {t})"))
             .unwrap_or_default(),
         outcome.csv.display()
-    );
-    Ok(())
+    ))
 }
 
 fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
@@ -721,14 +734,13 @@ fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
     let trials: usize = outcomes.iter().map(|o| o.completed + o.aborted).sum();
     bar.finish_and_clear();
     let elapsed = wall.elapsed().as_secs_f64();
-    println!(
-        "simulated {} sessions of '{}': {trials} trials, {simulated:.1} s of session time in {elapsed:.2} s ({:.0}x real time) -> {}",
+    emit(&format!(
+        "simulated {} sessions of '{}': {trials} trials, {simulated:.1} s of session time in {elapsed:.2} s ({:.0}x real time) -> {}\n",
         args.participants,
         protocol.id,
         simulated / elapsed.max(1e-9),
         dir.root().display()
-    );
-    Ok(())
+    ))
 }
 
 /// Every model's and scenario's default parameters, pretty JSON.
@@ -755,7 +767,7 @@ struct RenderPlan {
     settings: RunSettings,
 }
 
-fn render_command(args: &RenderArgs) -> Result<(), Vec<UserError>> {
+fn render_command(args: &RenderArgs) -> Result<(), Failure> {
     if let Some(plot) = &args.plot
         && plot.extension().and_then(|e| e.to_str()) != Some("svg")
     {
@@ -765,7 +777,8 @@ fn render_command(args: &RenderArgs) -> Result<(), Vec<UserError>> {
                 "{}: only SVG figures are written (use a .svg name)",
                 plot.display()
             ),
-        )]);
+        )]
+        .into());
     }
     let plan = render_plan(&args.model, &args.scenario, &args.set)?;
     let samples = scenario::run(&plan.model, &plan.scenario, plan.settings).map_err(|e| {
@@ -799,15 +812,14 @@ fn render_command(args: &RenderArgs) -> Result<(), Vec<UserError>> {
         samples.first().map_or(0.0, |s| s.t_s),
         samples.last().map_or(0.0, |s| s.t_s),
     );
-    println!(
-        "{} / {}: {} samples at {} Hz, t = {t0:.3} .. {t1:.3} s, {onsets} stick-to-slip transitions -> {}",
+    emit(&format!(
+        "{} / {}: {} samples at {} Hz, t = {t0:.3} .. {t1:.3} s, {onsets} stick-to-slip transitions -> {}\n",
         plan.model.name(),
         plan.scenario.name(),
         samples.len(),
         plan.settings.rate_hz,
         args.out.display()
-    );
-    Ok(())
+    ))
 }
 
 fn param_error(prefix: &str, p: &ParamError) -> UserError {

@@ -4,6 +4,9 @@
 //! See `ARCHITECTURE.md` for the map. The friction core ([`friction`]) and the
 //! scenarios ([`scenario`]) read no clock and do no I/O; the command line
 //! ([`cli`]) is a thin shell over them.
+// `println!`/`eprintln!` panic on a broken pipe; the command line writes
+// through `cli::emit` and `cli::say` instead.
+#![deny(clippy::print_stdout, clippy::print_stderr)]
 
 pub mod analysis;
 pub mod cli;

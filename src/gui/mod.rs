@@ -889,11 +889,14 @@ impl eframe::App for FrictionlabApp {
     }
 
     fn on_exit(&mut self, _gl: Option<&eframe::glow::Context>) {
+        use std::io::Write as _;
+        // A broken standard error has nowhere left to be reported.
+        let mut err = std::io::stderr().lock();
         if let Some(live) = &mut self.live
             && let Err(e) = live.abort()
         {
-            eprintln!("error: {e}");
+            let _ = writeln!(err, "error: {e}");
         }
-        eprintln!("{}", self.frames.summary());
+        let _ = writeln!(err, "{}", self.frames.summary());
     }
 }
