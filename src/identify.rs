@@ -72,6 +72,8 @@ fn err(place: impl Into<String>, message: impl Into<String>) -> IdentifyError {
 /// A record ready to fit.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Record {
+    /// Where the record came from (the file), named in the fits' errors.
+    pub file: String,
     /// Time, s.
     pub t_s: Vec<f64>,
     /// Position, m (integrated from velocity when the file has none).
@@ -194,6 +196,7 @@ pub fn parse_csv(file: &str, text: &str) -> Result<Record, IdentifyError> {
         smooth(&t, &derivative(&t, &v))
     };
     Ok(Record {
+        file: file.to_owned(),
         t_s: t,
         x_m: x,
         v_m_s: v,
@@ -330,6 +333,25 @@ pub struct Estimate {
     pub std_error: f64,
 }
 
+impl Estimate {
+    fn is_finite(self) -> bool {
+        self.value.is_finite() && self.std_error.is_finite()
+    }
+}
+
+/// A fit whose arithmetic overflowed (values far outside any apparatus's
+/// range) is refused rather than printed as `null`s.
+fn finite_or_refused(rec: &Record, finite: bool, noise: &Noise) -> Result<(), IdentifyError> {
+    if finite && noise.velocity_sd_m_s.is_finite() && noise.acceleration_sd_m_s2.is_finite() {
+        Ok(())
+    } else {
+        Err(err(
+            &rec.file,
+            "the fit is not finite: the values overflow (are the columns in SI units: s, m, m/s, m/s^2, N?)",
+        ))
+    }
+}
+
 /// The noise the Karnopp correction assumed.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Noise {
@@ -356,6 +378,21 @@ pub struct KarnoppEstimates {
     pub b_neg_n_s_m: Estimate,
     /// RMS of the residual force, N.
     pub residual_rms_n: f64,
+}
+
+impl KarnoppEstimates {
+    fn is_finite(&self) -> bool {
+        [
+            self.mass_kg,
+            self.c_pos_n,
+            self.b_pos_n_s_m,
+            self.c_neg_n,
+            self.b_neg_n_s_m,
+        ]
+        .into_iter()
+        .all(Estimate::is_finite)
+            && self.residual_rms_n.is_finite()
+    }
 }
 
 /// A Karnopp identification.
@@ -415,7 +452,7 @@ pub fn fit_karnopp(
     ]));
     let singular = || {
         err(
-            "identify",
+            &rec.file,
             "the regressors are singular (too little motion to separate mass and friction)",
         )
     };
@@ -442,9 +479,16 @@ pub fn fit_karnopp(
             residual_rms_n: (rss / n).sqrt(),
         }
     };
+    let corrected = estimates(corrected_inv * xtf, corrected_inv * xtx * corrected_inv);
+    let plain_least_squares = estimates(plain_inv * xtf, plain_inv);
+    finite_or_refused(
+        rec,
+        corrected.is_finite() && plain_least_squares.is_finite(),
+        &noise,
+    )?;
     Ok(KarnoppFit {
-        corrected: estimates(corrected_inv * xtf, corrected_inv * xtx * corrected_inv),
-        plain_least_squares: estimates(plain_inv * xtf, plain_inv),
+        corrected,
+        plain_least_squares,
         noise,
         samples: rows.samples.len(),
         samples_pos: rows.pos,
@@ -479,7 +523,7 @@ fn karnopp_rows(rec: &Record, dv: f64) -> Result<Rows, IdentifyError> {
     for (n, way) in [(pos, "+x"), (neg, "-x")] {
         if n < MIN_PER_DIRECTION {
             return Err(err(
-                "identify",
+                &rec.file,
                 format!(
                     "no motion towards {way}: {n} samples faster than DV = {dv} m/s, at least {MIN_PER_DIRECTION} needed"
                 ),
@@ -506,6 +550,20 @@ pub struct DahlEstimates {
     pub viscous_n_s_m: Estimate,
     /// RMS of the residual force, N.
     pub residual_rms_n: f64,
+}
+
+impl DahlEstimates {
+    fn is_finite(&self) -> bool {
+        [
+            self.mass_kg,
+            self.fc_pos_n,
+            self.fc_neg_n,
+            self.viscous_n_s_m,
+        ]
+        .into_iter()
+        .all(Estimate::is_finite)
+            && self.residual_rms_n.is_finite()
+    }
 }
 
 /// A Dahl identification.
@@ -666,7 +724,7 @@ pub fn fit_dahl(
     };
     problem.set_params(&p0);
     let (mut problem, report) = LevenbergMarquardt::new().minimize(problem);
-    let singular = || err("identify", "the Dahl fit's Jacobian is singular");
+    let singular = || err(&rec.file, "the Dahl fit's Jacobian is singular");
     let n = count(rec.t_s.len());
     let s = nalgebra::Matrix4::from_diagonal(&Vector4::new(
         n * noise.acceleration_sd_m_s2.powi(2),
@@ -717,8 +775,14 @@ pub fn fit_dahl(
             break;
         }
     }
+    let corrected = estimates(&problem, true)?;
+    finite_or_refused(
+        rec,
+        corrected.is_finite() && least_squares.is_finite(),
+        &noise,
+    )?;
     Ok(DahlFit {
-        corrected: estimates(&problem, true)?,
+        corrected,
         least_squares,
         noise,
         sigma_n_m: sigma,

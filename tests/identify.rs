@@ -339,6 +339,20 @@ fn bad_input_names_the_place_and_exits_2() {
             ),
             ": 62:1: column 't_s': time must increase from row to row",
         ),
+        (
+            // Finite numbers whose products overflow: refused, not nulls.
+            "huge.csv",
+            format!(
+                "t_s,x_m,v_m_s,a_m_s2,applied_force_n\n{}",
+                rows(&|i| format!(
+                    "{},{},{},1e300,1e300\n",
+                    i as f64 * 1e-3,
+                    1e300 * (i % 3) as f64,
+                    1e300 * ((i % 3) as f64 - 1.0)
+                ))
+            ),
+            "the fit is not finite: the values overflow",
+        ),
     ];
     for (name, text, message) in cases {
         let path = dir.path().join(name);
@@ -351,7 +365,8 @@ fn bad_input_names_the_place_and_exits_2() {
             .unwrap();
         assert_eq!(out.status.code(), Some(2), "{name}");
         let err = String::from_utf8(out.stderr).unwrap();
-        assert!(err.starts_with("error: "), "{name}: {err}");
+        let place = format!("error: {}: ", path.display());
+        assert!(err.starts_with(&place), "{name}: {err}");
         assert!(err.contains(message), "{name}: {err}");
         assert!(out.stdout.is_empty(), "{name}");
     }
@@ -416,4 +431,50 @@ fn sessions_record_each_trials_device_stream_and_identify_reads_it() {
         }
     }
     assert_eq!(identified, 1, "the high_stiction trial's stream");
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::test_runner::Config::with_cases(64))]
+
+    /// Any record that parses, however odd its numbers (tiny, huge, constant,
+    /// alternating), gets a fit with finite values or an error naming its
+    /// file: never a panic, never a `null` in the report.
+    #[test]
+    fn any_parsed_record_gets_a_finite_fit_or_an_error(
+        rows in proptest::collection::vec(
+            (-1.0_f64..1.0, -1.0_f64..1.0, -1.0_f64..1.0, -1.0_f64..1.0), 50..200),
+        scale in proptest::sample::select(vec![1e-300, 1e-6, 1.0, 1e6, 1e150, 1e300]),
+        sigma in proptest::sample::select(vec![1.0, 2e4, 1e9]),
+        exponent in proptest::sample::select(vec![0.3, 1.0, 4.0]),
+        dv in proptest::sample::select(vec![0.0, 0.03, 0.5]),
+    ) {
+        let mut text = String::from("t_s,x_m,v_m_s,a_m_s2,applied_force_n\n");
+        for (i, (x, v, a, f)) in rows.iter().enumerate() {
+            let t = i as f64 * 1e-3;
+            writeln!(text, "{t},{},{},{},{}", x * scale, v * scale, a * scale, f * scale).unwrap();
+        }
+        let record = identify::parse_csv("odd.csv", &text).unwrap();
+        let check = |values: Vec<f64>| {
+            for v in values {
+                proptest::prop_assert!(v.is_finite(), "{v}");
+            }
+            Ok(())
+        };
+        match identify::fit_karnopp(&record, dv, None) {
+            Ok(fit) => {
+                let json = serde_json::to_string(&fit).unwrap();
+                proptest::prop_assert!(!json.contains("null"), "{json}");
+                check(vec![fit.corrected.c_pos_n.value, fit.corrected.mass_kg.std_error])?;
+            }
+            Err(e) => proptest::prop_assert_eq!(e.place, "odd.csv"),
+        }
+        match identify::fit_dahl(&record, sigma, exponent, dv, None) {
+            Ok(fit) => {
+                let json = serde_json::to_string(&fit).unwrap();
+                proptest::prop_assert!(!json.contains("null"), "{json}");
+                check(vec![fit.corrected.fc_pos_n.value, fit.least_squares.mass_kg.value])?;
+            }
+            Err(e) => proptest::prop_assert_eq!(e.place, "odd.csv"),
+        }
+    }
 }
