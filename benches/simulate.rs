@@ -2,7 +2,8 @@
 //! magnitude-estimation protocol (60 trials at 5 kHz) with 10 simulated
 //! participants, every trial logged and fsync'd as in a real session.
 //! The real-time factor is the simulated session time divided by the median
-//! wall time; the aim is >= 1,000x (stretch: 10,000x).
+//! wall time; the aim is >= 1,000x (stretch: 10,000x). One session at a time
+//! (`jobs-1`), and one per core (`jobs-all`, as `simulate` does by default).
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -10,10 +11,10 @@ use std::time::Duration;
 use criterion::{Criterion, criterion_group, criterion_main};
 use frictionlab::protocol::load::parse;
 use frictionlab::results::ResultsDir;
-use frictionlab::runner::simulate_participants;
+use frictionlab::runner::{Simulation, simulate_participants};
 
 /// Runs the study into a fresh folder under `root`; returns simulated seconds.
-fn study(text: &str, root: &std::path::Path) -> f64 {
+fn study(text: &str, root: &std::path::Path, jobs: usize) -> f64 {
     let Ok(protocol) = parse(text) else {
         return 0.0;
     };
@@ -22,13 +23,16 @@ fn study(text: &str, root: &std::path::Path) -> f64 {
     };
     simulate_participants(
         &ResultsDir::new(dir.path()),
-        &protocol,
-        text.as_bytes(),
-        10,
-        1,
-        None,
-        false,
-        &mut |_| {},
+        &Simulation {
+            protocol: &protocol,
+            protocol_bytes: text.as_bytes(),
+            participants: 10,
+            seed: 1,
+            pace: None,
+            streams: false,
+            jobs,
+        },
+        &|_| {},
     )
     .map_or(0.0, |outcomes| outcomes.iter().map(|o| o.simulated_s).sum())
 }
@@ -43,16 +47,37 @@ fn simulate(c: &mut Criterion) {
     group
         .sample_size(10)
         .measurement_time(Duration::from_secs(20));
-    for (name, root) in [
-        ("magnitude-10-participants/disk", std::env::temp_dir()),
-        ("magnitude-10-participants/tmpfs", "/dev/shm".into()),
+    let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
+    for (name, root, jobs) in [
+        (
+            "magnitude-10-participants/disk/jobs-1",
+            std::env::temp_dir(),
+            1,
+        ),
+        (
+            "magnitude-10-participants/tmpfs/jobs-1",
+            "/dev/shm".into(),
+            1,
+        ),
+        (
+            "magnitude-10-participants/disk/jobs-all",
+            std::env::temp_dir(),
+            cores,
+        ),
+        (
+            "magnitude-10-participants/tmpfs/jobs-all",
+            "/dev/shm".into(),
+            cores,
+        ),
     ] {
         if !root.is_dir() {
             continue;
         }
-        let simulated = study(&text, &root);
-        eprintln!("{name}: {simulated:.1} s of session time per iteration");
-        group.bench_function(name, |b| b.iter(|| black_box(study(&text, &root))));
+        let simulated = study(&text, &root, jobs);
+        eprintln!("{name} ({jobs} jobs): {simulated:.1} s of session time per iteration");
+        group.bench_function(name, |b| {
+            b.iter(|| black_box(study(&text, &root, jobs)));
+        });
     }
     group.finish();
 }

@@ -179,6 +179,10 @@ struct SimulateArgs {
     /// 5 kHz is gigabytes).
     #[arg(long)]
     streams: bool,
+    /// Sessions run at once, one per thread (default: every core; 1 with
+    /// `--pace`). The files are the same byte for byte for any number.
+    #[arg(long)]
+    jobs: Option<usize>,
 }
 
 #[derive(Debug, clap::Args)]
@@ -695,6 +699,9 @@ fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
     if args.participants == 0 {
         errors.push(UserError::new("--participants", "must be at least 1"));
     }
+    if args.jobs == Some(0) {
+        errors.push(UserError::new("--jobs", "must be at least 1"));
+    }
     if let Some(p) = args.pace
         && let Err(e) = check_pace(p)
     {
@@ -718,24 +725,32 @@ fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
         .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     let wall = std::time::Instant::now();
+    let jobs = args.jobs.unwrap_or_else(|| {
+        if args.pace.is_some() {
+            1
+        } else {
+            std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
+        }
+    });
     let outcomes = runner::simulate_participants(
         &dir,
-        &protocol,
-        &bytes,
-        args.participants,
-        args.seed,
-        args.pace,
-        args.streams,
-        &mut |done| {
-            bar.set_position(done as u64);
+        &runner::Simulation {
+            protocol: &protocol,
+            protocol_bytes: &bytes,
+            participants: args.participants,
+            seed: args.seed,
+            pace: args.pace,
+            streams: args.streams,
+            jobs,
         },
+        &|done| bar.set_position(done as u64),
     )?;
     let simulated: f64 = outcomes.iter().map(|o| o.simulated_s).sum();
     let trials: usize = outcomes.iter().map(|o| o.completed + o.aborted).sum();
     bar.finish_and_clear();
     let elapsed = wall.elapsed().as_secs_f64();
     emit(&format!(
-        "simulated {} sessions of '{}': {trials} trials, {simulated:.1} s of session time in {elapsed:.2} s ({:.0}x real time) -> {}\n",
+        "simulated {} sessions of '{}' ({jobs} at a time): {trials} trials, {simulated:.1} s of session time in {elapsed:.2} s ({:.0}x real time) -> {}\n",
         args.participants,
         protocol.id,
         simulated / elapsed.max(1e-9),

@@ -423,47 +423,91 @@ pub fn participant_seed(seed: u64, i: u32) -> u64 {
     z ^ (z >> 31)
 }
 
-/// Runs `participants` whole sessions with simulated participants `sim-001`,
-/// `sim-002`, ... (participant index i, plan seed [`participant_seed`]).
-/// `progress(trials done in all sessions)` is called after each trial.
+/// A simulated study: `participants` whole sessions of `protocol` with
+/// simulated participants `sim-001`, `sim-002`, ... (participant index i,
+/// plan seed [`participant_seed`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Simulation<'a> {
+    /// The protocol, as parsed.
+    pub protocol: &'a Protocol,
+    /// Its file's bytes (hashed into each log header).
+    pub protocol_bytes: &'a [u8],
+    /// How many participants.
+    pub participants: u32,
+    /// The study seed.
+    pub seed: u64,
+    /// Simulated time runs `pace` x faster than real time; `None`: as fast
+    /// as possible.
+    pub pace: Option<f64>,
+    /// Record each trial's device stream.
+    pub streams: bool,
+    /// Sessions run at once, on as many threads (at least 1). Each session
+    /// depends only on its participant's seed, so the files are the same
+    /// byte for byte whatever the number.
+    pub jobs: usize,
+}
+
+/// Runs a [`Simulation`]; the outcomes come in participant order.
+/// `progress(trials done in all sessions)` is called after each trial (from
+/// the worker threads). After a session fails, no new one starts; the first
+/// failure (in participant order) is returned.
 ///
 /// # Errors
 /// As [`run_simulated`].
-#[expect(
-    clippy::too_many_arguments,
-    reason = "one argument per `simulate` option"
-)]
 pub fn simulate_participants(
     dir: &ResultsDir,
-    protocol: &Protocol,
-    protocol_bytes: &[u8],
-    participants: u32,
-    seed: u64,
-    pace: Option<f64>,
-    streams: bool,
-    progress: &mut dyn FnMut(usize),
+    sim: &Simulation<'_>,
+    progress: &(dyn Fn(usize) + Sync),
 ) -> Result<Vec<SessionOutcome>, ResultsError> {
-    let mut done = 0;
-    (0..participants)
-        .map(|i| {
+    use std::sync::Mutex;
+    use std::sync::atomic::{AtomicBool, AtomicU32, AtomicUsize, Ordering};
+    let (next, done, failed) = (
+        AtomicU32::new(0),
+        AtomicUsize::new(0),
+        AtomicBool::new(false),
+    );
+    let outcomes: Mutex<Vec<(u32, Result<SessionOutcome, ResultsError>)>> = Mutex::default();
+    let work = || {
+        while !failed.load(Ordering::Relaxed) {
+            let i = next.fetch_add(1, Ordering::Relaxed);
+            if i >= sim.participants {
+                break;
+            }
             let id = format!("sim-{:03}", i + 1);
             let req = SessionRequest {
-                protocol,
-                protocol_bytes,
+                protocol: sim.protocol,
+                protocol_bytes: sim.protocol_bytes,
                 participant: &id,
                 participant_index: Some(i),
-                seed: participant_seed(seed, i),
+                seed: participant_seed(sim.seed, i),
                 resume: false,
-                pace,
+                pace: sim.pace,
                 device: "sim",
-                streams,
+                streams: sim.streams,
             };
-            let before = done;
-            let outcome = run_simulated(dir, &req, &mut |trial, _| progress(before + trial))?;
-            done += outcome.completed + outcome.aborted;
-            Ok(outcome)
-        })
-        .collect()
+            let mut reported = 0;
+            let outcome = run_simulated(dir, &req, &mut |trial, _| {
+                let new = trial.saturating_sub(reported);
+                reported = reported.max(trial);
+                progress(done.fetch_add(new, Ordering::Relaxed) + new);
+            });
+            failed.fetch_or(outcome.is_err(), Ordering::Relaxed);
+            if let Ok(mut list) = outcomes.lock() {
+                list.push((i, outcome));
+            }
+        }
+    };
+    std::thread::scope(|scope| {
+        for _ in 1..sim.jobs.min(sim.participants as usize) {
+            scope.spawn(work);
+        }
+        work();
+    });
+    let mut list = outcomes
+        .into_inner()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    list.sort_by_key(|(i, _)| *i);
+    list.into_iter().map(|(_, outcome)| outcome).collect()
 }
 
 /// Why a device session stopped early.

@@ -9,7 +9,7 @@
 use frictionlab::analysis::analyze;
 use frictionlab::protocol::load::parse;
 use frictionlab::results::ResultsDir;
-use frictionlab::runner::simulate_participants;
+use frictionlab::runner::{Simulation, simulate_participants};
 use serde_json::Value;
 
 /// Numbers equal to 1e-9 relative; everything else equal.
@@ -48,13 +48,16 @@ fn check(study: &str, participants: u32, seed: u64) {
     let out = tmp.path().join("results");
     simulate_participants(
         &ResultsDir::new(&out),
-        &protocol,
-        text.as_bytes(),
-        participants,
-        seed,
-        None,
-        false,
-        &mut |_| {},
+        &Simulation {
+            protocol: &protocol,
+            protocol_bytes: text.as_bytes(),
+            participants,
+            seed,
+            pace: None,
+            streams: false,
+            jobs: 2,
+        },
+        &|_| {},
     )
     .unwrap();
     let fresh = analyze(&out).unwrap().summary;

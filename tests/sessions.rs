@@ -127,27 +127,40 @@ fn a_session_writes_the_contract_files() {
 }
 
 #[test]
-fn the_same_seed_gives_byte_identical_data_and_different_seeds_different_orders() {
+fn the_same_seed_gives_byte_identical_data_for_any_jobs_and_different_seeds_different_orders() {
     let (a, b, c) = (
         tempfile::tempdir().unwrap(),
         tempfile::tempdir().unwrap(),
         tempfile::tempdir().unwrap(),
     );
-    for (d, seed) in [(&a, "17"), (&b, "17"), (&c, "18")] {
+    // One session at a time, or three at once: the same files.
+    for (d, seed, jobs) in [(&a, "17", "1"), (&b, "17", "3"), (&c, "18", "2")] {
         let o = frictionlab(&[
             "simulate",
             &protocol("magnitude-quick"),
             "--participants",
-            "2",
+            "3",
             "--seed",
             seed,
+            "--jobs",
+            jobs,
             "--out",
             d.path().to_str().unwrap(),
         ]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     }
+    // Data, logs and the dataset description.
     let read = |d: &tempfile::TempDir| {
-        csvs(d.path())
+        let mut files = csvs(d.path());
+        let mut logs: Vec<PathBuf> = std::fs::read_dir(d.path().join("logs"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        logs.sort();
+        files.extend(logs);
+        files.push(d.path().join("dataset_description.json"));
+        assert_eq!(files.len(), 7);
+        files
             .iter()
             .map(|p| std::fs::read(p).unwrap())
             .collect::<Vec<_>>()
@@ -167,6 +180,38 @@ fn the_same_seed_gives_byte_identical_data_and_different_seeds_different_orders(
             .collect::<Vec<_>>()
     };
     assert_ne!(order(&a), order(&c), "stimulus order depends on the seed");
+}
+
+#[test]
+fn many_sessions_at_once_share_the_results_folder_safely() {
+    // Every session rewrites dataset_description.json; at once, on four
+    // threads, none may trip over another's temporary file.
+    let dir = tempfile::tempdir().unwrap();
+    let o = frictionlab(&[
+        "simulate",
+        &protocol("paired-quick"),
+        "--participants",
+        "40",
+        "--seed",
+        "3",
+        "--jobs",
+        "4",
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(csvs(dir.path()).len(), 40);
+    let leftovers: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .filter(|n| n.to_string_lossy().ends_with(".partial"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+    let description: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("dataset_description.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(description["@type"], "Dataset");
 }
 
 #[test]

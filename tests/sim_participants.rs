@@ -18,7 +18,7 @@ use std::collections::BTreeMap;
 
 use frictionlab::protocol::load::parse;
 use frictionlab::results::ResultsDir;
-use frictionlab::runner::simulate_participants;
+use frictionlab::runner::{Simulation, simulate_participants};
 use serde_json::{Value, json};
 
 type Row = BTreeMap<String, String>;
@@ -38,13 +38,16 @@ fn simulate(name: &str, n: u32, seed: u64, edit: impl FnOnce(&mut Value)) -> Vec
     let dir = tempfile::tempdir().unwrap();
     let outcomes = simulate_participants(
         &ResultsDir::new(dir.path()),
-        &protocol,
-        text.as_bytes(),
-        n,
-        seed,
-        None,
-        false,
-        &mut |_| {},
+        &Simulation {
+            protocol: &protocol,
+            protocol_bytes: text.as_bytes(),
+            participants: n,
+            seed,
+            pace: None,
+            streams: false,
+            jobs: 2,
+        },
+        &|_| {},
     )
     .unwrap();
     let mut rows = Vec::new();
