@@ -579,11 +579,10 @@ fn check_pace(pace: f64) -> Result<(), Vec<UserError>> {
 /// The `run` options' problems, all at once.
 fn check_run_args(args: &RunArgs) -> Vec<UserError> {
     let mut errors = Vec::new();
-    if args.device != "sim" && !Path::new(&args.device).exists() {
-        errors.push(UserError::new(
-            "--device",
-            format!("{}: no such serial port (frictionlab ports lists them; 'sim' is the simulated device)", args.device),
-        ));
+    if args.device != "sim"
+        && let Err(e) = crate::device::check_port(Path::new(&args.device))
+    {
+        errors.push(UserError::new("--device", format!("{}: {e}", args.device)));
     }
     if !(args.device_timeout.is_finite() && args.device_timeout > 0.0) {
         errors.push(UserError::new(

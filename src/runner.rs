@@ -21,8 +21,8 @@ use crate::protocol::Protocol;
 use crate::protocol::engine::{Action, Engine, Input};
 use crate::protocol::plan::{Plan, resolve};
 use crate::results::{
-    Header, LOG_FORMAT, LogLine, ReadLog, ResultsDir, ResultsError, SessionLog, data_csv,
-    kinds_present, read_log, replace_file, sha256_hex, write_dataset_description,
+    Header, LOG_FORMAT, LogLine, ReadLog, ResultsDir, ResultsError, SessionFiles, SessionLog,
+    data_csv, kinds_present, read_log, replace_file, sha256_hex, write_dataset_description,
 };
 
 /// What to run.
@@ -84,18 +84,43 @@ pub(crate) struct Prepared {
     pub(crate) streams: StreamRecorder,
 }
 
-/// Opens the session's log: a new session (header, empty CSV) or the
-/// participant's unfinished one when resuming (torn last line cut, a
-/// `resumed` line appended). `responder` is logged in a new header.
-pub(crate) fn prepare(
+/// A session checked and planned, nothing written yet: [`Planned::open`]
+/// writes. A device shell connects in between, so a device that never
+/// answers leaves no session behind.
+pub(crate) struct Planned {
+    pub(crate) plan: Plan,
+    opening: Opening,
+    streams: bool,
+}
+
+enum Opening {
+    /// The participant's unfinished session, read back.
+    Resume {
+        read: Box<ReadLog>,
+        files: SessionFiles,
+    },
+    /// A new session with this header.
+    New {
+        header: Box<Header>,
+        files: SessionFiles,
+    },
+}
+
+/// Checks the request against the results folder and plans the session:
+/// a new one, or the participant's unfinished one when resuming. Reads
+/// only. `responder` is logged in a new header.
+///
+/// # Errors
+/// `--resume` without an unfinished session; an unreadable log.
+pub(crate) fn plan_session(
     dir: &ResultsDir,
     req: &SessionRequest<'_>,
     responder: &str,
-) -> Result<Prepared, ResultsError> {
+) -> Result<Planned, ResultsError> {
     let id = &req.protocol.id;
     let sessions = dir.sessions(id, req.participant)?;
     if req.resume {
-        let Some(last) = sessions.last() else {
+        let Some(last) = sessions.into_iter().next_back() else {
             return Err(ResultsError::Input {
                 place: "--resume".into(),
                 message: format!(
@@ -116,25 +141,13 @@ pub(crate) fn prepare(
             });
         }
         let h = &read.header;
-        let plan = resolve(&h.protocol, h.plan_seed, h.participant_index);
-        let start_at = read.next_trial();
-        let start_time = read.trials.last().map_or(0.0, |r| r.ended_s);
-        let (mut log, torn) = SessionLog::reopen(&last.log, read.valid_len)?;
-        log.append(&LogLine::Resumed {
-            at_trial: start_at,
-            torn_bytes: torn,
-        })?;
-        return Ok(Prepared {
-            plan,
-            log,
-            start_at,
-            start_time,
-            session: last.session,
-            csv: last.csv.clone(),
-            resumed_at: Some(start_at),
-            torn_bytes: torn,
-            streams: StreamRecorder::new(dir, &read.header, req.streams),
-            read,
+        return Ok(Planned {
+            plan: resolve(&h.protocol, h.plan_seed, h.participant_index),
+            opening: Opening::Resume {
+                read: Box::new(read),
+                files: last,
+            },
+            streams: req.streams,
         });
     }
     let session = sessions.last().map_or(1, |s| s.session + 1);
@@ -157,28 +170,89 @@ pub(crate) fn prepare(
         responder: responder.into(),
         planned_trials: plan.trials.len(),
     };
-    let log = SessionLog::create(&files.log, header.clone())?;
-    let read = ReadLog {
-        header,
-        trials: Vec::new(),
-        ended: false,
-        valid_len: 0,
-        torn_bytes: 0,
-    };
-    replace_file(&files.csv, data_csv(&read).as_bytes(), false)?;
-    write_dataset_description(dir, &kinds_present(dir))?;
-    Ok(Prepared {
+    Ok(Planned {
         plan,
-        log,
-        streams: StreamRecorder::new(dir, &read.header, req.streams),
-        read,
-        start_at: 0,
-        start_time: 0.0,
-        session,
-        csv: files.csv,
-        resumed_at: None,
-        torn_bytes: 0,
+        opening: Opening::New {
+            header: Box::new(header),
+            files,
+        },
+        streams: req.streams,
     })
+}
+
+impl Planned {
+    /// Opens the session's log: a new session (header, empty CSV, dataset
+    /// description) or the unfinished one (torn last line cut, a `resumed`
+    /// line appended).
+    ///
+    /// # Errors
+    /// The log exists (a new session never overwrites), or any I/O error.
+    pub(crate) fn open(self, dir: &ResultsDir) -> Result<Prepared, ResultsError> {
+        let Planned {
+            plan,
+            opening,
+            streams,
+        } = self;
+        match opening {
+            Opening::Resume { read, files } => {
+                let start_at = read.next_trial();
+                let start_time = read.trials.last().map_or(0.0, |r| r.ended_s);
+                let (mut log, torn) = SessionLog::reopen(&files.log, read.valid_len)?;
+                log.append(&LogLine::Resumed {
+                    at_trial: start_at,
+                    torn_bytes: torn,
+                })?;
+                Ok(Prepared {
+                    plan,
+                    log,
+                    start_at,
+                    start_time,
+                    session: files.session,
+                    csv: files.csv,
+                    resumed_at: Some(start_at),
+                    torn_bytes: torn,
+                    streams: StreamRecorder::new(dir, &read.header, streams),
+                    read: *read,
+                })
+            }
+            Opening::New { header, files } => {
+                let log = SessionLog::create(&files.log, (*header).clone())?;
+                let read = ReadLog {
+                    header: *header,
+                    trials: Vec::new(),
+                    ended: false,
+                    valid_len: 0,
+                    torn_bytes: 0,
+                };
+                replace_file(&files.csv, data_csv(&read).as_bytes(), false)?;
+                write_dataset_description(dir, &kinds_present(dir))?;
+                Ok(Prepared {
+                    plan,
+                    log,
+                    streams: StreamRecorder::new(dir, &read.header, streams),
+                    read,
+                    start_at: 0,
+                    start_time: 0.0,
+                    session: files.session,
+                    csv: files.csv,
+                    resumed_at: None,
+                    torn_bytes: 0,
+                })
+            }
+        }
+    }
+}
+
+/// [`plan_session`], then [`Planned::open`].
+///
+/// # Errors
+/// As those.
+pub(crate) fn prepare(
+    dir: &ResultsDir,
+    req: &SessionRequest<'_>,
+    responder: &str,
+) -> Result<Prepared, ResultsError> {
+    plan_session(dir, req, responder)?.open(dir)
 }
 
 /// Records each trial's device stream at the loop rate and writes it, when
@@ -527,6 +601,13 @@ pub enum DeviceRunError {
         /// Trials completed before.
         completed: usize,
     },
+    /// The device never answered within the timeout; no session was
+    /// started or resumed (exit 3, nothing written).
+    #[error("no answer from the device for {timeout_s} s; no session was started")]
+    NeverConnected {
+        /// The timeout, s.
+        timeout_s: f64,
+    },
     /// The loop thread could not start.
     #[error("cannot start the haptic loop: {0}")]
     Loop(std::io::Error),
@@ -575,6 +656,26 @@ pub fn run_device(
     use crate::device::link::LinkState;
     use crate::friction::ForceLimit;
 
+    // Checked and planned first (bad input fails at once), then the device
+    // must answer before anything is written.
+    let planned = plan_session(dir, req, "sim")?;
+    let rate_hz = loop_rate_hz(&planned.plan);
+    let mut haptic = HapticLoop::start(path.to_owned(), rate_hz, true, ForceLimit::default())
+        .map_err(DeviceRunError::Loop)?;
+    let wall = Instant::now();
+    'connect: loop {
+        while let Some(tick) = haptic.recv() {
+            if tick.link == LinkState::Connected {
+                break 'connect;
+            }
+        }
+        if wall.elapsed().as_secs_f64() > timeout_s {
+            // No log to put the loop's statistics in.
+            let _ = haptic.stop();
+            return Err(DeviceRunError::NeverConnected { timeout_s });
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
     let Prepared {
         plan,
         mut log,
@@ -586,13 +687,16 @@ pub fn run_device(
         torn_bytes,
         mut streams,
         ..
-    } = prepare(dir, req, "sim")?;
+    } = match planned.open(dir) {
+        Ok(prepared) => prepared,
+        Err(e) => {
+            let _ = haptic.stop();
+            return Err(e.into());
+        }
+    };
     let total = plan.trials.len();
     let mut participant = SimParticipant::new(read.header.plan_seed, &read.header.participant);
     let mut engine = Engine::new(plan, start_at);
-    let rate_hz = loop_rate_hz(engine.plan());
-    let mut haptic = HapticLoop::start(path.to_owned(), rate_hz, true, ForceLimit::default())
-        .map_err(DeviceRunError::Loop)?;
     let mut pending: VecDeque<Input> = VecDeque::from([Input::Start]);
     let mut timers: Vec<f64> = Vec::new();
     let (mut t, mut last_hand) = (0.0_f64, f64::NEG_INFINITY);

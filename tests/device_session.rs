@@ -1,6 +1,7 @@
 //! Whole sessions on the emulated device over a pseudo-terminal: a quick
-//! session end to end, an emulator killed mid-trial and restarted, and a
-//! device that never comes back (exit 3, completed trials intact).
+//! session end to end, an emulator killed mid-trial and restarted, a
+//! device that never comes back (exit 3, completed trials intact), one that
+//! never answers (exit 3, nothing written), and paths that are no port.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -45,6 +46,15 @@ fn run(protocol: &str, out: &Path, dev: &Path, extra: &[&str]) -> Child {
         .unwrap()
 }
 
+/// Kills the emulator and removes its link, as unplugging a USB device
+/// removes its port. (A link left behind points at a freed pseudo-terminal
+/// number, which a test running alongside may take for its own.)
+fn unplug(mut emu: Child, dev: &Path) {
+    emu.kill().unwrap();
+    emu.wait().unwrap();
+    std::fs::remove_file(dev).unwrap();
+}
+
 fn log_of(out: &Path, protocol: &str) -> std::path::PathBuf {
     out.join(format!(
         "logs/study-{}_subject-dev_session-1_log.jsonl",
@@ -83,13 +93,12 @@ fn a_quick_session_runs_end_to_end_on_the_emulated_device() {
 fn an_emulator_killed_mid_trial_and_restarted_costs_one_requeued_trial() {
     let dir = tempfile::tempdir().unwrap();
     let dev = dir.path().join("dev");
-    let mut emu = common::emulator(&dev);
+    let emu = common::emulator(&dev);
     let out = dir.path().join("results");
     let session = run("magnitude-quick", &out, &dev, &["--device-timeout", "20"]);
     // Trials take 2 s: at 3.2 s the second trial is under way.
     std::thread::sleep(Duration::from_millis(3200));
-    emu.kill().unwrap();
-    emu.wait().unwrap();
+    unplug(emu, &dev);
     std::thread::sleep(Duration::from_millis(600));
     let mut emu = common::emulator(&dev);
     let o = session.wait_with_output().unwrap();
@@ -131,12 +140,11 @@ fn an_emulator_killed_mid_trial_and_restarted_costs_one_requeued_trial() {
 fn a_device_that_never_comes_back_ends_the_run_with_exit_3() {
     let dir = tempfile::tempdir().unwrap();
     let dev = dir.path().join("dev");
-    let mut emu = common::emulator(&dev);
+    let emu = common::emulator(&dev);
     let out = dir.path().join("results");
     let session = run("magnitude-quick", &out, &dev, &["--device-timeout", "1.5"]);
     std::thread::sleep(Duration::from_secs(3));
-    emu.kill().unwrap();
-    emu.wait().unwrap();
+    unplug(emu, &dev);
     let started = Instant::now();
     let o = session.wait_with_output().unwrap();
     assert_eq!(
@@ -164,6 +172,76 @@ fn a_device_that_never_comes_back_ends_the_run_with_exit_3() {
     )
     .unwrap();
     assert!(csv.lines().count() > completed, "the CSV has them too");
+}
+
+#[test]
+fn a_device_that_never_answers_starts_no_session_and_exits_3() {
+    // A port that is there but silent (a powered-off device): a
+    // pseudo-terminal whose other end never speaks.
+    let (_master, slave) = serialport::TTYPort::pair().unwrap();
+    let port = serialport::SerialPort::name(&slave).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("results");
+    let started = Instant::now();
+    let o = run(
+        "paired-quick",
+        &out,
+        Path::new(&port),
+        &["--device-timeout", "1"],
+    )
+    .wait_with_output()
+    .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{stderr}");
+    assert!(
+        stderr.contains("no answer from the device for 1 s; no session was started"),
+        "{stderr}"
+    );
+    assert!(started.elapsed() < Duration::from_secs(8));
+    assert!(!out.exists(), "nothing written");
+
+    // An unfinished session (a real-time run on the simulated device,
+    // killed) resumed on the silent port stays exactly as it was.
+    let mut first = run("paired-quick", &out, Path::new("sim"), &["--pace", "1"]);
+    std::thread::sleep(Duration::from_millis(1500));
+    first.kill().unwrap();
+    first.wait().unwrap();
+    let log = log_of(&out, "paired-quick");
+    let before = std::fs::read(&log).unwrap();
+    let o = run(
+        "paired-quick",
+        &out,
+        Path::new(&port),
+        &["--device-timeout", "1", "--resume"],
+    )
+    .wait_with_output()
+    .unwrap();
+    assert_eq!(o.status.code(), Some(3));
+    assert_eq!(std::fs::read(&log).unwrap(), before, "the log is untouched");
+    drop(slave);
+}
+
+#[test]
+fn a_device_path_that_is_not_a_serial_port_is_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("notes.txt");
+    std::fs::write(&file, "not a port").unwrap();
+    let out = dir.path().join("results");
+    for (dev, what) in [
+        (file.as_path(), "a regular file, not a serial port"),
+        (dir.path(), "a directory, not a serial port"),
+    ] {
+        let o = run("paired-quick", &out, dev, &[])
+            .wait_with_output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{stderr}");
+        assert!(
+            stderr.starts_with(&format!("error: --device: {}: {what}", dev.display())),
+            "{stderr}"
+        );
+        assert!(!out.exists(), "nothing written");
+    }
 }
 
 /// The session the GUI drives, on the emulated device: the pointer's hand

@@ -45,6 +45,33 @@ pub fn list_ports() -> Result<Vec<PortInfo>, String> {
         .collect())
 }
 
+/// Checks that `path` can be a serial port (it exists and is a character
+/// device, following links) without opening it: opening a port toggles
+/// its control lines, which resets some boards.
+///
+/// # Errors
+/// What is wrong, for `error: --device: <path>: <what>`.
+pub fn check_port(path: &std::path::Path) -> Result<(), String> {
+    use std::os::unix::fs::FileTypeExt as _;
+    let meta = std::fs::metadata(path).map_err(|_| {
+        "no such serial port (frictionlab ports lists them; 'sim' is the simulated device)"
+            .to_owned()
+    })?;
+    if meta.file_type().is_char_device() {
+        return Ok(());
+    }
+    let what = if meta.is_dir() {
+        "a directory"
+    } else if meta.is_file() {
+        "a regular file"
+    } else {
+        "not a character device"
+    };
+    Err(format!(
+        "{what}, not a serial port (frictionlab ports lists them; 'sim' is the simulated device)"
+    ))
+}
+
 /// What a device reports each loop tick.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct DeviceSample {
