@@ -34,10 +34,10 @@ use crate::device::sim::{Apparatus, SimDevice};
 use crate::device::wire::Message;
 use crate::friction::ForceLimit;
 use crate::protocol::engine::{Action, Engine, Input, Question, Screen};
-use crate::results::{LogLine, ReadLog, ResultsDir, ResultsError, SessionLog};
+use crate::results::{Header, LogLine, ReadLog, ResultsDir, ResultsError, SessionLog};
 use crate::runner::{
-    HAND_EVERY_S, Prepared, SessionRequest, StreamRecorder, loop_rate_hz, prepare, write_end,
-    write_record,
+    HAND_EVERY_S, Planned, Prepared, SessionRequest, StreamRecorder, loop_rate_hz, plan_session,
+    write_end, write_record,
 };
 
 /// The hand a mouse drives on the simulated device: a spring-damper pulling
@@ -224,14 +224,76 @@ enum Device {
     },
 }
 
-/// A session run by a person from the GUI.
-pub struct LiveSession {
-    engine: Engine,
+/// The session's files. On the simulated device they are opened at start;
+/// on a serial port only once the device has answered, so a device that
+/// never answers leaves no session behind.
+enum Files {
+    /// Planned, nothing written yet; notes wait for the log.
+    Planned {
+        planned: Box<Planned>,
+        dir: ResultsDir,
+        notes: Vec<String>,
+    },
+    Open(Box<OpenFiles>),
+}
+
+struct OpenFiles {
     log: SessionLog,
     read: ReadLog,
     csv: PathBuf,
     streams: StreamRecorder,
-    session: u32,
+}
+
+impl Files {
+    /// Opens planned files, writing the notes that waited; open files stay.
+    fn open(&mut self) -> Result<&mut OpenFiles, ResultsError> {
+        if let Files::Planned {
+            planned,
+            dir,
+            notes,
+        } = self
+        {
+            let Prepared {
+                mut log,
+                read,
+                csv,
+                streams,
+                ..
+            } = planned.open(dir)?;
+            for text in notes.drain(..) {
+                log.append(&LogLine::Note { text })?;
+            }
+            *self = Files::Open(Box::new(OpenFiles {
+                log,
+                read,
+                csv,
+                streams,
+            }));
+        }
+        Ok(match self {
+            Files::Open(open) => open,
+            Files::Planned { .. } => {
+                return Err(ResultsError::Input {
+                    place: "session".into(),
+                    message: "the session's files are not open".into(),
+                });
+            }
+        })
+    }
+
+    /// The open files, if they are.
+    fn opened(&mut self) -> Option<&mut OpenFiles> {
+        match self {
+            Files::Open(open) => Some(open),
+            Files::Planned { .. } => None,
+        }
+    }
+}
+
+/// A session run by a person from the GUI.
+pub struct LiveSession {
+    engine: Engine,
+    files: Files,
     device: Device,
     device_label: String,
     sample: DeviceSample,
@@ -259,22 +321,25 @@ impl LiveSession {
         req: &SessionRequest<'_>,
         device: &DeviceChoice,
     ) -> Result<Self, LiveError> {
-        let Prepared {
-            plan,
-            log,
-            read,
-            start_at,
-            start_time,
-            session,
-            csv,
-            streams,
-            ..
-        } = prepare(dir, req, "gui")?;
+        let planned = plan_session(dir, req, "gui")?;
+        let (plan, start_at, start_time) = (
+            planned.plan.clone(),
+            planned.start_at(),
+            planned.start_time(),
+        );
+        let mut files = Files::Planned {
+            planned: Box::new(planned),
+            dir: dir.clone(),
+            notes: Vec::new(),
+        };
         let device = match device {
-            DeviceChoice::Simulated => Device::Sim {
-                device: Box::new(SimDevice::new(Apparatus::default(), MOUSE_HAND_MASS_KG)),
-                dt: 1e-3,
-            },
+            DeviceChoice::Simulated => {
+                files.open()?;
+                Device::Sim {
+                    device: Box::new(SimDevice::new(Apparatus::default(), MOUSE_HAND_MASS_KG)),
+                    dt: 1e-3,
+                }
+            }
             DeviceChoice::Port(path) => {
                 let rate_hz = loop_rate_hz(&plan);
                 let haptic = HapticLoop::start(path.clone(), rate_hz, true, ForceLimit::default())
@@ -293,11 +358,7 @@ impl LiveSession {
         };
         Ok(LiveSession {
             engine: Engine::new(plan, start_at),
-            log,
-            read,
-            csv,
-            streams,
-            session,
+            files,
             device,
             device_label: req.device.to_owned(),
             sample: DeviceSample::default(),
@@ -351,8 +412,10 @@ impl LiveSession {
                 - MOUSE_HAND_DAMPING_N_S_M * self.sample.v_m_s;
             self.sample = device.step(*dt, hand);
             self.t += *dt;
-            if self.engine.in_trial() {
-                self.streams.push(self.t, &self.sample);
+            if self.engine.in_trial()
+                && let Some(files) = self.files.opened()
+            {
+                files.streams.push(self.t, &self.sample);
             }
             self.trace.observe(self.t, &self.sample);
             if self.timers.iter().any(|&w| w <= self.t) {
@@ -399,8 +462,10 @@ impl LiveSession {
                 force_n: tick.force_n,
                 vibration: tick.vibration,
             };
-            if self.engine.in_trial() {
-                self.streams.push(self.t, &self.sample);
+            if self.engine.in_trial()
+                && let Some(files) = self.files.opened()
+            {
+                files.streams.push(self.t, &self.sample);
             }
             if tick.button && !*button {
                 clicks.push(tick.x_m);
@@ -443,6 +508,11 @@ impl LiveSession {
                 Device::Haptic { link, .. } => *link == LinkState::Connected,
                 Device::Stopped { .. } => false,
             };
+            if connected {
+                // The session starts (its files are written) once the
+                // device answers.
+                self.files.open()?;
+            }
             let next = match self.pending.front() {
                 // An abort goes through even while paused or lost.
                 Some(Input::Abort { .. }) => self.pending.pop_front(),
@@ -491,11 +561,12 @@ impl LiveSession {
                 self.view.question = None;
             }
             Action::Record(record) => {
+                let files = self.files.open()?;
                 write_record(
-                    &mut self.log,
-                    &mut self.read,
-                    &self.csv,
-                    &mut self.streams,
+                    &mut files.log,
+                    &mut files.read,
+                    &files.csv,
+                    &mut files.streams,
                     &record,
                 )?;
                 self.view.question = None;
@@ -508,7 +579,8 @@ impl LiveSession {
             Action::WakeAt(at) => self.timers.push(at),
             Action::Finished => {
                 self.stop_device()?;
-                write_end(&mut self.log, &self.read)?;
+                let files = self.files.open()?;
+                write_end(&mut files.log, &files.read)?;
                 self.phase = Phase::Finished;
                 self.view = View::default();
             }
@@ -524,7 +596,10 @@ impl LiveSession {
             std::mem::replace(&mut self.device, Device::Stopped { rate_hz })
         {
             let stats = haptic.stop();
-            self.log.append(&LogLine::Loop(stats))?;
+            // A session whose device never answered has no log to hold them.
+            if let Some(files) = self.files.opened() {
+                files.log.append(&LogLine::Loop(stats))?;
+            }
         }
         Ok(())
     }
@@ -617,9 +692,15 @@ impl LiveSession {
     /// # Errors
     /// I/O on the log.
     pub fn note(&mut self, text: &str) -> Result<(), ResultsError> {
-        self.log.append(&LogLine::Note {
-            text: text.to_owned(),
-        })
+        match &mut self.files {
+            Files::Open(files) => files.log.append(&LogLine::Note {
+                text: text.to_owned(),
+            }),
+            Files::Planned { notes, .. } => {
+                notes.push(text.to_owned());
+                Ok(())
+            }
+        }
     }
 
     /// What the participant's screen shows.
@@ -637,31 +718,44 @@ impl LiveSession {
     /// Session number.
     #[must_use]
     pub fn session(&self) -> u32 {
-        self.session
+        self.header().session
+    }
+
+    fn header(&self) -> &Header {
+        match &self.files {
+            Files::Open(files) => &files.read.header,
+            Files::Planned { planned, .. } => planned.header(),
+        }
     }
 
     /// The plan seed (logged in the header).
     #[must_use]
     pub fn plan_seed(&self) -> u64 {
-        self.read.header.plan_seed
+        self.header().plan_seed
     }
 
     /// The participant id.
     #[must_use]
     pub fn participant(&self) -> &str {
-        &self.read.header.participant
+        &self.header().participant
     }
 
     /// The data CSV.
     #[must_use]
     pub fn csv(&self) -> &std::path::Path {
-        &self.csv
+        match &self.files {
+            Files::Open(files) => &files.csv,
+            Files::Planned { planned, .. } => &planned.files().csv,
+        }
     }
 
     /// The session log.
     #[must_use]
     pub fn log_path(&self) -> &std::path::Path {
-        self.log.path()
+        match &self.files {
+            Files::Open(files) => files.log.path(),
+            Files::Planned { planned, .. } => &planned.files().log,
+        }
     }
 
     /// Session time, s.

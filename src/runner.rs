@@ -181,22 +181,49 @@ pub(crate) fn plan_session(
 }
 
 impl Planned {
+    /// The session's header (a new one's, or the resumed one's).
+    pub(crate) fn header(&self) -> &Header {
+        match &self.opening {
+            Opening::Resume { read, .. } => &read.header,
+            Opening::New { header, .. } => header,
+        }
+    }
+
+    /// The session's number and files.
+    pub(crate) fn files(&self) -> &SessionFiles {
+        match &self.opening {
+            Opening::Resume { files, .. } | Opening::New { files, .. } => files,
+        }
+    }
+
+    /// Session time where this run starts, s (a resumed session's last
+    /// trial's end).
+    pub(crate) fn start_time(&self) -> f64 {
+        match &self.opening {
+            Opening::Resume { read, .. } => read.trials.last().map_or(0.0, |r| r.ended_s),
+            Opening::New { .. } => 0.0,
+        }
+    }
+
+    /// The first trial this run presents.
+    pub(crate) fn start_at(&self) -> usize {
+        match &self.opening {
+            Opening::Resume { read, .. } => read.next_trial(),
+            Opening::New { .. } => 0,
+        }
+    }
+
     /// Opens the session's log: a new session (header, empty CSV, dataset
     /// description) or the unfinished one (torn last line cut, a `resumed`
     /// line appended).
     ///
     /// # Errors
     /// The log exists (a new session never overwrites), or any I/O error.
-    pub(crate) fn open(self, dir: &ResultsDir) -> Result<Prepared, ResultsError> {
-        let Planned {
-            plan,
-            opening,
-            streams,
-        } = self;
-        match opening {
+    pub(crate) fn open(&self, dir: &ResultsDir) -> Result<Prepared, ResultsError> {
+        let (start_at, start_time) = (self.start_at(), self.start_time());
+        let (plan, streams) = (self.plan.clone(), self.streams);
+        match &self.opening {
             Opening::Resume { read, files } => {
-                let start_at = read.next_trial();
-                let start_time = read.trials.last().map_or(0.0, |r| r.ended_s);
                 let (mut log, torn) = SessionLog::reopen(&files.log, read.valid_len)?;
                 log.append(&LogLine::Resumed {
                     at_trial: start_at,
@@ -208,17 +235,17 @@ impl Planned {
                     start_at,
                     start_time,
                     session: files.session,
-                    csv: files.csv,
+                    csv: files.csv.clone(),
                     resumed_at: Some(start_at),
                     torn_bytes: torn,
                     streams: StreamRecorder::new(dir, &read.header, streams),
-                    read: *read,
+                    read: (**read).clone(),
                 })
             }
             Opening::New { header, files } => {
-                let log = SessionLog::create(&files.log, (*header).clone())?;
+                let log = SessionLog::create(&files.log, (**header).clone())?;
                 let read = ReadLog {
-                    header: *header,
+                    header: (**header).clone(),
                     trials: Vec::new(),
                     ended: false,
                     valid_len: 0,
@@ -231,10 +258,10 @@ impl Planned {
                     log,
                     streams: StreamRecorder::new(dir, &read.header, streams),
                     read,
-                    start_at: 0,
-                    start_time: 0.0,
+                    start_at,
+                    start_time,
                     session: files.session,
-                    csv: files.csv,
+                    csv: files.csv.clone(),
                     resumed_at: None,
                     torn_bytes: 0,
                 })

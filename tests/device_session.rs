@@ -275,6 +275,8 @@ fn a_live_gui_session_runs_on_the_emulated_device() {
         streams: true,
     };
     let mut live = LiveSession::start(&results, &req, &DeviceChoice::Port(dev.clone())).unwrap();
+    // Typed before the device has answered: kept until the log exists.
+    live.note("typed while connecting").unwrap();
     let start = Instant::now();
     let mut followed = false;
     let mut p99 = None;
@@ -316,9 +318,58 @@ fn a_live_gui_session_runs_on_the_emulated_device() {
     assert_eq!(read.trials.len(), 6);
     assert!(read.trials.iter().all(|r| r.status == Status::Completed));
     let text = std::fs::read_to_string(live.log_path()).unwrap();
+    let lines: Vec<LogLine> = text
+        .lines()
+        .filter_map(|l| serde_json::from_str::<LogLine>(l).ok())
+        .collect();
+    assert!(lines.iter().any(|l| matches!(l, LogLine::Loop(_))));
     assert!(
-        text.lines()
-            .filter_map(|l| serde_json::from_str::<LogLine>(l).ok())
-            .any(|l| matches!(l, LogLine::Loop(_)))
+        lines
+            .iter()
+            .any(|l| matches!(l, LogLine::Note { text } if text == "typed while connecting"))
     );
+}
+
+/// The window's session on a port that never answers: the trials wait,
+/// the status says not connected, and an abort leaves no session behind.
+#[test]
+fn a_live_session_on_a_silent_device_writes_nothing() {
+    use frictionlab::live::{DeviceChoice, LiveSession, Phase};
+    use frictionlab::runner::SessionRequest;
+
+    let (_master, slave) = serialport::TTYPort::pair().unwrap();
+    let port = serialport::SerialPort::name(&slave).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = format!("{}/protocols/paired-quick.json", env!("CARGO_MANIFEST_DIR"));
+    let (protocol, bytes) = frictionlab::protocol::load::read(Path::new(&path)).unwrap();
+    let out = dir.path().join("results");
+    let results = frictionlab::results::ResultsDir::new(&out);
+    let req = SessionRequest {
+        protocol: &protocol,
+        protocol_bytes: &bytes,
+        participant: "silent",
+        participant_index: None,
+        seed: 2,
+        resume: false,
+        pace: None,
+        device: &port,
+        streams: true,
+    };
+    let mut live =
+        LiveSession::start(&results, &req, &DeviceChoice::Port(port.clone().into())).unwrap();
+    assert_eq!(live.session(), 1);
+    live.note("waiting for the device").unwrap();
+    let start = Instant::now();
+    while start.elapsed() < Duration::from_millis(1500) {
+        live.advance(start.elapsed().as_secs_f64()).unwrap();
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    assert!(!live.device_status().connected);
+    assert!(live.view().screen.is_none(), "no trial started");
+    assert!(!out.exists(), "nothing written while waiting");
+    live.abort().unwrap();
+    assert_eq!(live.phase(), Phase::Aborted);
+    assert!(!out.exists(), "nothing written after the abort");
+    assert!(!live.log_path().exists());
+    drop(slave);
 }
