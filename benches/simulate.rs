@@ -11,7 +11,7 @@ use std::time::Duration;
 use criterion::{Criterion, criterion_group, criterion_main};
 use frictionlab::protocol::load::parse;
 use frictionlab::results::ResultsDir;
-use frictionlab::runner::{Simulation, simulate_participants};
+use frictionlab::session::{Simulation, simulate_participants};
 
 /// Runs the study into a fresh folder under `root`; returns simulated seconds.
 fn study(text: &str, root: &std::path::Path, jobs: usize) -> f64 {

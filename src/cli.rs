@@ -11,9 +11,33 @@ use crate::friction::{ForceLimit, ModelParams, ParamError};
 use crate::protocol::{Protocol, load};
 use crate::render;
 use crate::results::{self, ResultsError};
-use crate::runner;
 use crate::scenario::{self, RunSettings, ScenarioError, ScenarioParams};
+use crate::session::{self, DeviceChoice, SessionError};
 use crate::settings::{self, SetError};
+
+/// `--device`: `sim` (the simulated apparatus) or a serial port's path.
+/// Whether the path is a port is checked with the other options
+/// ([`check_run_args`]), so every problem is reported at once.
+#[expect(
+    clippy::unnecessary_wraps,
+    reason = "clap's value_parser takes a fallible function"
+)]
+fn parse_device(text: &str) -> Result<DeviceChoice, String> {
+    Ok(if text == "sim" {
+        DeviceChoice::Simulated
+    } else {
+        DeviceChoice::Port(PathBuf::from(text))
+    })
+}
+
+/// `--responder`: who answers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum ResponderChoice {
+    /// A person, in the experimenter window.
+    Gui,
+    /// A simulated participant.
+    Sim,
+}
 
 /// Exit code for bad input (a flag, a parameter, a file).
 pub const EXIT_BAD_INPUT: u8 = 2;
@@ -29,7 +53,7 @@ pub struct Cli {
 }
 
 /// `frictionlab gui` options: what the window opens with.
-#[derive(Debug, clap::Args, Default)]
+#[derive(Debug, clap::Args)]
 struct GuiArgs {
     /// A protocol file (default: the first shipped protocol).
     #[arg(long)]
@@ -41,8 +65,8 @@ struct GuiArgs {
     #[arg(long, default_value = "results")]
     out: PathBuf,
     /// `sim` (the simulated device) or a serial port's path.
-    #[arg(long, default_value = "sim")]
-    device: String,
+    #[arg(long, default_value = "sim", value_parser = parse_device)]
+    device: DeviceChoice,
 }
 
 #[derive(Debug, Subcommand)]
@@ -105,11 +129,11 @@ struct RunArgs {
     #[arg(long)]
     out: PathBuf,
     /// `sim` (the simulated apparatus) or a serial port path.
-    #[arg(long, default_value = "sim")]
-    device: String,
+    #[arg(long, default_value = "sim", value_parser = parse_device)]
+    device: DeviceChoice,
     /// Who answers: `gui` (a person) or `sim` (a simulated participant).
-    #[arg(long, default_value = "gui")]
-    responder: String,
+    #[arg(long, value_enum, default_value_t = ResponderChoice::Gui)]
+    responder: ResponderChoice,
     /// Plan seed (default: drawn at random and logged).
     #[arg(long)]
     seed: Option<u64>,
@@ -247,9 +271,10 @@ pub fn main() -> ExitCode {
     let Some(command) = cli.command else {
         return finish(gui_command(
             GuiArgs {
+                protocol: None,
+                participant: String::new(),
                 out: PathBuf::from("results"),
-                device: "sim".into(),
-                ..GuiArgs::default()
+                device: DeviceChoice::Simulated,
             },
             None,
         ));
@@ -323,6 +348,20 @@ impl From<Vec<UserError>> for Failure {
         Failure {
             code: EXIT_BAD_INPUT,
             errors,
+        }
+    }
+}
+
+impl From<SessionError> for Failure {
+    fn from(e: SessionError) -> Self {
+        match e {
+            SessionError::Results(e) => e.into(),
+            SessionError::NothingToResume { .. } | SessionError::Ended { .. } => {
+                vec![UserError::new("--resume", e.to_string())].into()
+            }
+            SessionError::Lost { .. }
+            | SessionError::NeverConnected { .. }
+            | SessionError::Loop(_) => device_failure("--device", e.to_string()),
         }
     }
 }
@@ -496,16 +535,11 @@ fn gui_command(args: GuiArgs, start: Option<crate::gui::AutoStart>) -> Result<()
             "no display (DISPLAY and WAYLAND_DISPLAY are unset)",
         ));
     }
-    let device = if args.device == "sim" {
-        crate::live::DeviceChoice::Simulated
-    } else {
-        crate::live::DeviceChoice::Port(PathBuf::from(&args.device))
-    };
     crate::gui::run(crate::gui::Launch {
         protocol: args.protocol,
         participant: args.participant,
         out: args.out,
-        device,
+        device: args.device,
         start,
     })
     .map_err(|e| no_display(&e))
@@ -579,10 +613,13 @@ fn check_pace(pace: f64) -> Result<(), Vec<UserError>> {
 /// The `run` options' problems, all at once.
 fn check_run_args(args: &RunArgs) -> Vec<UserError> {
     let mut errors = Vec::new();
-    if args.device != "sim"
-        && let Err(e) = crate::device::check_port(Path::new(&args.device))
+    if let DeviceChoice::Port(path) = &args.device
+        && let Err(e) = crate::device::check_port(path)
     {
-        errors.push(UserError::new("--device", format!("{}: {e}", args.device)));
+        errors.push(UserError::new(
+            "--device",
+            format!("{}: {e}", path.display()),
+        ));
     }
     if !(args.device_timeout.is_finite() && args.device_timeout > 0.0) {
         errors.push(UserError::new(
@@ -590,15 +627,6 @@ fn check_run_args(args: &RunArgs) -> Vec<UserError> {
             format!(
                 "must be a number greater than 0, got {}",
                 args.device_timeout
-            ),
-        ));
-    }
-    if args.responder != "sim" && args.responder != "gui" {
-        errors.push(UserError::new(
-            "--responder",
-            format!(
-                "'{}': 'gui' (a person, in the experimenter window) or 'sim' (a simulated participant)",
-                args.responder
             ),
         ));
     }
@@ -622,7 +650,7 @@ fn run_command(args: &RunArgs) -> Result<(), Failure> {
             return Err(errors.into());
         }
     };
-    if args.responder == "gui" {
+    if args.responder == ResponderChoice::Gui {
         // A person answers: the experimenter window opens with this session
         // started (or resumed).
         return gui_command(
@@ -641,7 +669,7 @@ fn run_command(args: &RunArgs) -> Result<(), Failure> {
     }
     let seed = args.seed.unwrap_or_else(rand::random::<u64>);
     let dir = results::ResultsDir::new(&args.out);
-    let req = runner::SessionRequest {
+    let req = session::SessionRequest {
         protocol: &protocol,
         protocol_bytes: &bytes,
         participant: &args.participant,
@@ -652,26 +680,24 @@ fn run_command(args: &RunArgs) -> Result<(), Failure> {
         device: &args.device,
         streams: true,
     };
-    let outcome = if args.device == "sim" {
-        runner::run_simulated(&dir, &req, &mut |_, _| {})?
-    } else {
-        match runner::run_device(
+    let outcome = match &args.device {
+        DeviceChoice::Simulated => {
+            session::run_simulated(&dir, &req, &mut |_, _| {}).map_err(Failure::from)
+        }
+        DeviceChoice::Port(path) => session::run_device(
             &dir,
             &req,
-            Path::new(&args.device),
             args.device_timeout,
+            session::sim_participant,
             &mut |_, _| {},
-        ) {
-            Ok(o) => o,
-            Err(runner::DeviceRunError::Results(e)) => return Err(e.into()),
-            Err(e) => {
-                return Err(device_failure(
-                    &format!("--device {}", args.device),
-                    e.to_string(),
-                ));
-            }
-        }
-    };
+        )
+        .map_err(|e| match e {
+            SessionError::Results(_)
+            | SessionError::NothingToResume { .. }
+            | SessionError::Ended { .. } => e.into(),
+            e => device_failure(&format!("--device {}", path.display()), e.to_string()),
+        }),
+    }?;
     if outcome.torn_bytes > 0 {
         say(&format!(
             "note: {}: a torn last line ({} bytes) was ignored and cut before resuming",
@@ -731,9 +757,9 @@ fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
             std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
         }
     });
-    let outcomes = runner::simulate_participants(
+    let outcomes = session::simulate_participants(
         &dir,
-        &runner::Simulation {
+        &session::Simulation {
             protocol: &protocol,
             protocol_bytes: &bytes,
             participants: args.participants,

@@ -9,7 +9,7 @@
 use frictionlab::analysis::analyze;
 use frictionlab::protocol::load::parse;
 use frictionlab::results::ResultsDir;
-use frictionlab::runner::{Simulation, simulate_participants};
+use frictionlab::session::{Simulation, simulate_participants};
 use serde_json::Value;
 
 /// Numbers equal to 1e-9 relative; everything else equal.

@@ -249,9 +249,9 @@ fn a_device_path_that_is_not_a_serial_port_is_bad_input() {
 /// and every trial is logged with the responder `gui`.
 #[test]
 fn a_live_gui_session_runs_on_the_emulated_device() {
-    use frictionlab::live::{DeviceChoice, LiveSession, Phase};
     use frictionlab::protocol::engine::{Answer, Input, Screen};
-    use frictionlab::runner::SessionRequest;
+    use frictionlab::session::SessionRequest;
+    use frictionlab::session::{DeviceChoice, LiveSession, Phase};
 
     let dir = tempfile::tempdir().unwrap();
     let dev = dir.path().join("dev");
@@ -262,7 +262,7 @@ fn a_live_gui_session_runs_on_the_emulated_device() {
     );
     let (protocol, bytes) = frictionlab::protocol::load::read(Path::new(&path)).unwrap();
     let results = frictionlab::results::ResultsDir::new(dir.path().join("results"));
-    let device = dev.display().to_string();
+    let device = DeviceChoice::Port(dev.clone());
     let req = SessionRequest {
         protocol: &protocol,
         protocol_bytes: &bytes,
@@ -274,7 +274,7 @@ fn a_live_gui_session_runs_on_the_emulated_device() {
         device: &device,
         streams: true,
     };
-    let mut live = LiveSession::start(&results, &req, &DeviceChoice::Port(dev.clone())).unwrap();
+    let mut live = LiveSession::start(&results, &req).unwrap();
     // Typed before the device has answered: kept until the log exists.
     live.note("typed while connecting").unwrap();
     let start = Instant::now();
@@ -314,7 +314,7 @@ fn a_live_gui_session_runs_on_the_emulated_device() {
     let read = read_log(live.log_path()).unwrap();
     assert!(read.ended);
     assert_eq!(read.header.responder, "gui");
-    assert_eq!(read.header.device, device);
+    assert_eq!(read.header.device, device.label());
     assert_eq!(read.trials.len(), 6);
     assert!(read.trials.iter().all(|r| r.status == Status::Completed));
     let text = std::fs::read_to_string(live.log_path()).unwrap();
@@ -334,8 +334,8 @@ fn a_live_gui_session_runs_on_the_emulated_device() {
 /// the status says not connected, and an abort leaves no session behind.
 #[test]
 fn a_live_session_on_a_silent_device_writes_nothing() {
-    use frictionlab::live::{DeviceChoice, LiveSession, Phase};
-    use frictionlab::runner::SessionRequest;
+    use frictionlab::session::SessionRequest;
+    use frictionlab::session::{DeviceChoice, LiveSession, Phase};
 
     let (_master, slave) = serialport::TTYPort::pair().unwrap();
     let port = serialport::SerialPort::name(&slave).unwrap();
@@ -352,11 +352,10 @@ fn a_live_session_on_a_silent_device_writes_nothing() {
         seed: 2,
         resume: false,
         pace: None,
-        device: &port,
+        device: &DeviceChoice::Port(port.clone().into()),
         streams: true,
     };
-    let mut live =
-        LiveSession::start(&results, &req, &DeviceChoice::Port(port.clone().into())).unwrap();
+    let mut live = LiveSession::start(&results, &req).unwrap();
     assert_eq!(live.session(), 1);
     live.note("waiting for the device").unwrap();
     let start = Instant::now();
@@ -372,4 +371,219 @@ fn a_live_session_on_a_silent_device_writes_nothing() {
     assert!(!out.exists(), "nothing written after the abort");
     assert!(!live.log_path().exists());
     drop(slave);
+}
+
+/// Issue 13: a resumed `run --device` session went on from session time 0
+/// (trial 3 started at 0.002 s after trial 2 ended at 6.006 s, and its
+/// stream restarted too). The device's clock is now only mapped onto the
+/// session clock: trial and stream times never go backwards across a
+/// kill -9 and a resume.
+#[test]
+fn a_resumed_device_session_keeps_its_clock_going() {
+    let dir = tempfile::tempdir().unwrap();
+    let dev = dir.path().join("dev");
+    let mut emu = common::emulator(&dev);
+    let out = dir.path().join("results");
+    let mut first = run("magnitude-quick", &out, &dev, &[]);
+    // Instructions, then 2 s trials: two trials are logged after about 4.5 s.
+    let log = log_of(&out, "magnitude-quick");
+    let start = Instant::now();
+    while read_log(&log).map_or(0, |l| l.trials.len()) < 2 && start.elapsed().as_secs() < 30 {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    first.kill().unwrap(); // SIGKILL
+    first.wait().unwrap();
+    let o = run("magnitude-quick", &out, &dev, &["--resume"])
+        .wait_with_output()
+        .unwrap();
+    emu.kill().unwrap();
+    emu.wait().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let read = read_log(&log).unwrap();
+    assert!(read.ended && read.trials.len() >= 6, "{:?}", read.trials);
+    let mut last_end = 0.0_f64;
+    let mut runs = std::collections::HashMap::new();
+    for r in &read.trials {
+        assert!(
+            r.started_s >= last_end && r.ended_s >= r.started_s,
+            "trial {} runs {}..{} s after a trial that ended at {last_end} s",
+            r.trial,
+            r.started_s,
+            r.ended_s
+        );
+        last_end = r.ended_s;
+        let run_no = runs.entry(r.trial).and_modify(|n| *n += 1).or_insert(1);
+        let stream = out.join(format!(
+            "streams/study-magnitudequick_subject-dev_session-1_trial-{}_run-{run_no}_stream.csv",
+            r.trial
+        ));
+        let Ok(text) = std::fs::read_to_string(&stream) else {
+            continue; // killed before its stream was written
+        };
+        let times: Vec<f64> = text
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').next().unwrap().parse().unwrap())
+            .collect();
+        assert!(!times.is_empty());
+        assert!(
+            times.windows(2).all(|w| w[1] >= w[0])
+                && times[0] >= r.started_s - 0.01
+                && times[times.len() - 1] <= r.ended_s + 0.01,
+            "trial {}: stream {}..{} s outside the trial's {}..{} s",
+            r.trial,
+            times[0],
+            times[times.len() - 1],
+            r.started_s,
+            r.ended_s
+        );
+    }
+}
+
+/// A responder that continues past instructions and breaks but never
+/// answers: it holds a trial in its answer phase.
+struct Waiting;
+
+impl frictionlab::session::Responder for Waiting {
+    const LABEL: &'static str = "sim";
+    fn hand_mass_kg(&self) -> f64 {
+        0.4
+    }
+    fn on_action(
+        &mut self,
+        _: f64,
+        action: &frictionlab::protocol::engine::Action,
+        _: Option<&frictionlab::protocol::plan::PlannedTrial>,
+    ) -> frictionlab::session::Reaction {
+        use frictionlab::protocol::engine::{Action, Input, Screen};
+        let inputs = match action {
+            Action::Show(Screen::Instructions(_) | Screen::Break { .. }) => vec![Input::Continue],
+            _ => vec![],
+        };
+        frictionlab::session::Reaction {
+            inputs,
+            reset_to: None,
+        }
+    }
+    fn decide(
+        &mut self,
+        _: f64,
+        _: &frictionlab::device::DeviceSample,
+    ) -> frictionlab::session::Reaction {
+        frictionlab::session::Reaction::default()
+    }
+    fn drive(
+        &self,
+        _: f64,
+        _: &frictionlab::device::DeviceSample,
+    ) -> Option<frictionlab::hand::HandDrive> {
+        None
+    }
+    fn hand_force(&mut self, _: f64, _: f64, _: &frictionlab::device::DeviceSample) -> f64 {
+        0.0
+    }
+}
+
+fn magnitude_quick() -> (frictionlab::protocol::Protocol, Vec<u8>) {
+    let path = format!(
+        "{}/protocols/magnitude-quick.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    frictionlab::protocol::load::read(Path::new(&path)).unwrap()
+}
+
+/// The one record of a session whose device was lost in trial 0's answer
+/// phase: aborted, re-queued, "device lost", after the 2 s exploration.
+fn assert_lost_in_answer_phase(log: &Path) {
+    let read = read_log(log).unwrap();
+    assert_eq!(read.trials.len(), 1, "{:?}", read.trials);
+    let r = &read.trials[0];
+    assert_eq!(
+        (r.trial, r.status, r.requeued, r.abort_reason.as_deref()),
+        (0, Status::Aborted, true, Some("device lost"))
+    );
+    assert!(r.ended_s > r.started_s + 2.0, "lost after the exploration");
+}
+
+/// Issue 13: headless device runs counted a trial as live only while a
+/// model was rendered, so a device lost while the participant was answering
+/// aborted nothing. The one lost-device rule aborts and re-queues it.
+#[test]
+fn a_device_lost_in_the_answer_phase_costs_that_trial_headless() {
+    use frictionlab::session::{DeviceChoice, SessionError, SessionRequest, run_device};
+    let dir = tempfile::tempdir().unwrap();
+    let dev = dir.path().join("dev");
+    let emu = common::emulator(&dev);
+    let results = frictionlab::results::ResultsDir::new(dir.path().join("results"));
+    let device = DeviceChoice::Port(dev.clone());
+    let runner = std::thread::spawn(move || {
+        let (protocol, bytes) = magnitude_quick();
+        let req = SessionRequest {
+            protocol: &protocol,
+            protocol_bytes: &bytes,
+            participant: "waits",
+            participant_index: None,
+            seed: 3,
+            resume: false,
+            pace: None,
+            device: &device,
+            streams: true,
+        };
+        run_device(&results, &req, 1.0, |_| Waiting, &mut |_, _| {})
+    });
+    // Exploration 0-2 s, then the question waits.
+    std::thread::sleep(Duration::from_millis(3500));
+    unplug(emu, &dev);
+    let e = runner.join().unwrap().unwrap_err();
+    assert!(matches!(e, SessionError::Lost { completed: 0, .. }), "{e}");
+    assert_lost_in_answer_phase(
+        &dir.path()
+            .join("results/logs/study-magnitudequick_subject-waits_session-1_log.jsonl"),
+    );
+}
+
+/// Issue 13: the same rule in the window: a device lost while the person
+/// is typing the answer aborts and re-queues the trial.
+#[test]
+fn a_device_lost_in_the_answer_phase_costs_that_trial_in_the_window() {
+    use frictionlab::protocol::engine::{Input, Question};
+    use frictionlab::session::{DeviceChoice, LiveSession, SessionRequest};
+    let dir = tempfile::tempdir().unwrap();
+    let dev = dir.path().join("dev");
+    let emu = common::emulator(&dev);
+    let (protocol, bytes) = magnitude_quick();
+    let results = frictionlab::results::ResultsDir::new(dir.path().join("results"));
+    let req = SessionRequest {
+        protocol: &protocol,
+        protocol_bytes: &bytes,
+        participant: "typist",
+        participant_index: None,
+        seed: 3,
+        resume: false,
+        pace: None,
+        device: &DeviceChoice::Port(dev.clone()),
+        streams: true,
+    };
+    let mut live = LiveSession::start(&results, &req).unwrap();
+    let start = Instant::now();
+    let mut continued = false;
+    while live.view().question != Some(Question::Magnitude) && start.elapsed().as_secs() < 20 {
+        live.advance(start.elapsed().as_secs_f64()).unwrap();
+        if !continued && live.view().screen.is_some() {
+            live.input(Input::Continue).unwrap();
+            continued = true;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    assert_eq!(live.view().question, Some(Question::Magnitude));
+    unplug(emu, &dev);
+    let lost = Instant::now();
+    while live.device_status().connected && lost.elapsed().as_secs() < 5 {
+        live.advance(start.elapsed().as_secs_f64()).unwrap();
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    live.advance(start.elapsed().as_secs_f64()).unwrap();
+    assert!(!live.device_status().connected);
+    assert_lost_in_answer_phase(live.log_path());
+    live.abort().unwrap();
 }

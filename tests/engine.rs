@@ -48,7 +48,7 @@ fn bad_magnitudes_are_refused_and_asked_again_never_logged() {
     assert!(a.iter().any(
         |a| matches!(a, Action::Show(Screen::Explore { until_s }) if (*until_s - 2.0).abs() < 1e-12)
     ));
-    e.handle(2.0, Input::Timer);
+    e.handle_timeout(2.0);
     assert!(drain(&mut e).contains(&Action::Ask(Question::Magnitude)));
     for bad in [
         "", "  ", "abc", "1,5", "0", "-3", "-0", "inf", "NaN", "1e999",
@@ -87,7 +87,7 @@ fn the_next_trial_waits_until_the_record_is_on_disk() {
     e.handle(1.0, Input::Answer(Answer::Magnitude("4".into())));
     assert!(record(&drain(&mut e)).is_some());
     // Nothing moves until Recorded: no new stimulus, answers ignored.
-    e.handle(1.5, Input::Timer);
+    e.handle_timeout(1.5);
     e.handle(1.5, Input::Answer(Answer::Magnitude("5".into())));
     assert!(drain(&mut e).is_empty());
     assert_eq!(e.trial_index(), 0);
@@ -181,7 +181,7 @@ fn an_aborted_trial_is_logged_and_presented_again() {
     let mut e = engine("paired-quick");
     e.handle(0.0, Input::Start);
     e.handle(0.0, Input::Continue);
-    e.handle(1.0, Input::Timer); // end of the reference phase
+    e.handle_timeout(1.0); // end of the reference phase
     drain(&mut e);
     e.handle(
         1.5,
@@ -215,4 +215,27 @@ fn an_aborted_trial_is_logged_and_presented_again() {
     assert_eq!(chosen.as_deref(), Some(second.as_str()));
     e.handle(2.6, Input::Recorded);
     assert!(drain(&mut e).contains(&Action::Finished) && e.is_finished());
+}
+
+/// Issue 13: the engine owns its timers (`poll_timeout`/`handle_timeout`);
+/// a timeout that is not yet due does nothing, and an expired exploration
+/// asks once.
+#[test]
+fn the_engine_says_when_to_wake_it_and_ignores_early_timeouts() {
+    let mut e = engine("magnitude-quick");
+    assert_eq!(e.poll_timeout(), None, "nothing is timed before the start");
+    e.handle(0.0, Input::Start);
+    e.handle(0.0, Input::Continue);
+    drain(&mut e);
+    assert_eq!(e.poll_timeout(), Some(2.0), "the exploration ends at 2 s");
+    e.handle_timeout(1.999);
+    assert!(drain(&mut e).is_empty(), "not due yet");
+    e.handle_timeout(2.0);
+    assert_eq!(
+        drain(&mut e),
+        vec![Action::Render(None), Action::Ask(Question::Magnitude)]
+    );
+    assert_eq!(e.poll_timeout(), None, "the question waits without a timer");
+    e.handle_timeout(10.0);
+    assert!(drain(&mut e).is_empty(), "an expired exploration asks once");
 }

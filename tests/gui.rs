@@ -17,9 +17,9 @@ use egui_kittest::{
     kittest::{NodeT, Queryable},
 };
 use frictionlab::gui::{FrictionlabApp, Launch, to_screen};
-use frictionlab::live::{LiveSession, Phase};
 use frictionlab::protocol::engine::Screen;
 use frictionlab::results::{LogLine, read_log};
+use frictionlab::session::{LiveSession, Phase};
 
 const STEP_S: f32 = 0.05;
 

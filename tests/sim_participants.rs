@@ -18,7 +18,7 @@ use std::collections::BTreeMap;
 
 use frictionlab::protocol::load::parse;
 use frictionlab::results::ResultsDir;
-use frictionlab::runner::{Simulation, simulate_participants};
+use frictionlab::session::{Simulation, simulate_participants};
 use serde_json::{Value, json};
 
 type Row = BTreeMap<String, String>;

@@ -247,6 +247,21 @@ enum FrameError {
     Malformed,
 }
 
+/// The `HandDrive` message for a hand drive (the emulator's hand; see
+/// [`crate::hand`]).
+#[must_use]
+#[expect(clippy::cast_possible_truncation, reason = "f32 is the wire's type")]
+pub fn hand_drive(d: &crate::hand::HandDrive) -> Message {
+    Message::HandDrive {
+        x_m: d.x_m as f32,
+        v_m_s: d.v_m_s as f32,
+        stiffness_n_m: d.stiffness_n_m as f32,
+        damping_n_s_m: d.damping_n_s_m as f32,
+        integral: d.integral_gain as f32,
+        click: false,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

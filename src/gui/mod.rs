@@ -23,11 +23,10 @@ use eframe::egui::{self, Color32, RichText};
 pub use participant::{WORKSPACE_HALF_M, to_m, to_screen};
 
 use crate::device::PortInfo;
-use crate::live::{DeviceChoice, LiveSession, Phase, percentile};
 use crate::protocol::engine::{Answer, Choice, Input};
 use crate::protocol::{Protocol, SHIPPED, load};
 use crate::results::{ResultsDir, check_participant, read_log};
-use crate::runner::SessionRequest;
+use crate::session::{DeviceChoice, LiveSession, Phase, SessionRequest, percentile};
 
 /// Frames kept for the frame-time statistics.
 const FRAMES_KEPT: usize = 100_000;
@@ -412,7 +411,6 @@ impl FrictionlabApp {
         };
         let seed = self.parsed_seed()?.unwrap_or_else(rand::random::<u64>);
         let participant = self.participant.trim().to_owned();
-        let device = self.device.label();
         let req = SessionRequest {
             protocol: &loaded.protocol,
             protocol_bytes: &loaded.bytes,
@@ -421,12 +419,11 @@ impl FrictionlabApp {
             seed,
             resume,
             pace: None,
-            device: &device,
+            device: &self.device,
             streams: true,
         };
         let dir = ResultsDir::new(self.out.trim());
-        let live =
-            LiveSession::start(&dir, &req, &self.device).map_err(|e| format!("error: {e}"))?;
+        let live = LiveSession::start(&dir, &req).map_err(|e| format!("error: {e}"))?;
         self.live = Some(live);
         self.error = None;
         self.answer.clear();

@@ -5,8 +5,8 @@
 use eframe::egui::{self, Color32, Key, Rect, RichText, Sense, Stroke, StrokeKind, pos2, vec2};
 
 use super::Command;
-use crate::live::{LiveSession, Phase};
 use crate::protocol::engine::{Choice, Question, Screen};
+use crate::session::{LiveSession, Phase};
 
 /// Half the width of the workspace strip, m: the simulated device's 32 mm
 /// range plus a margin on each side.

@@ -45,9 +45,11 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
 use crate::device::DeviceSample;
+use crate::hand::{Hand, HandDrive};
 use crate::protocol::engine::{Action, Answer, Choice, Input, Question, Screen};
 use crate::protocol::plan::{PlannedTrial, TrialSpec};
 use crate::scenario::min_jerk;
+use crate::session::Reaction;
 
 /// Force-equivalent newtons per unit RMS vibrotactile drive (see module
 /// docs; calibrated to the seed's tactile/force ratio of about 1/7).
@@ -138,32 +140,16 @@ pub fn id_hash(id: &str) -> u64 {
     h
 }
 
-/// What the participant does in response to an engine action.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Reaction {
-    /// Inputs for the engine, in order.
-    pub inputs: Vec<Input>,
-    /// Put the device (and hand) at rest here first, m.
-    pub reset_to: Option<f64>,
-}
-
-/// The hand's reference: position, velocity and impedance.
-#[derive(Debug, Clone, Copy)]
-struct Drive {
-    x: f64,
-    v: f64,
-    k: f64,
-    b: f64,
-    ki: f64,
-}
-
 /// The simulated participant.
 #[derive(Debug, Clone)]
 pub struct SimParticipant {
     id: String,
     traits: Traits,
     behaviour: Behaviour,
-    integral: f64,
+    hand: Hand,
+    /// The hand's movement segment (see [`crate::hand`]): a new trial or a
+    /// new Fitts target starts the next.
+    segment: u32,
     rng: ChaCha8Rng,
 }
 
@@ -230,7 +216,8 @@ impl SimParticipant {
             id: id.to_owned(),
             traits: Traits::draw(seed, id),
             behaviour: Behaviour::Idle,
-            integral: 0.0,
+            hand: Hand::default(),
+            segment: 0,
             rng: ChaCha8Rng::seed_from_u64(seed),
         }
     }
@@ -321,7 +308,7 @@ impl SimParticipant {
     fn start_trial(&mut self, trial: Option<&PlannedTrial>) {
         let seed = trial.map_or(0, |t| t.seed);
         self.rng = ChaCha8Rng::seed_from_u64(seed ^ id_hash(&self.id));
-        self.integral = 0.0;
+        self.segment = self.segment.wrapping_add(1);
     }
 
     fn fitts_screen(
@@ -349,7 +336,7 @@ impl SimParticipant {
             let to = centres[lit] + self.normal(aim_sd);
             let duration = self.movement_time(from, to, w_eff);
             if !missed {
-                self.integral = 0.0;
+                self.segment = self.segment.wrapping_add(1);
             }
             self.behaviour = Behaviour::Tap(Tap {
                 centres,
@@ -390,23 +377,22 @@ impl SimParticipant {
         self.traits.fitts_a_s + self.traits.fitts_b_s * ((to - from).abs() / w + 1.0).log2()
     }
 
-    /// The hand's reference at `now`.
-    fn drive(&self, now: f64, sample: &DeviceSample) -> Drive {
+    /// The hand's reference and impedance at `now`.
+    #[must_use]
+    pub fn drive(&self, now: f64, sample: &DeviceSample) -> HandDrive {
         let t = &self.traits;
-        let aimed = |x: f64, v: f64| Drive {
-            x,
-            v,
-            k: t.hand_stiffness_n_m,
-            b: t.hand_damping_n_s_m,
-            ki: t.hand_integral,
+        let aimed = |x_m: f64, v_m_s: f64| HandDrive {
+            x_m,
+            v_m_s,
+            stiffness_n_m: t.hand_stiffness_n_m,
+            damping_n_s_m: t.hand_damping_n_s_m,
+            integral_gain: t.hand_integral,
+            segment: self.segment,
         };
         match &self.behaviour {
-            Behaviour::Idle => Drive {
-                x: sample.x_m,
-                v: 0.0,
-                k: 0.0,
-                b: t.hand_damping_n_s_m,
-                ki: 0.0,
+            Behaviour::Idle => HandDrive {
+                segment: self.segment,
+                ..HandDrive::relaxed(sample.x_m, t.hand_damping_n_s_m)
             },
             Behaviour::Explore(e) => {
                 let w = std::f64::consts::TAU * t.stroke_hz;
@@ -419,17 +405,18 @@ impl SimParticipant {
             }
             Behaviour::Slide(sl) => {
                 let s = now - sl.start - SLIDE_REST_S;
-                let (x, v) = if s <= 0.0 {
+                let (x_m, v_m_s) = if s <= 0.0 {
                     (SLIDE_START_M, 0.0)
                 } else {
                     (SLIDE_START_M + SLIDE_SPEED_M_S * s, SLIDE_SPEED_M_S)
                 };
-                Drive {
-                    x,
-                    v,
-                    k: 300.0,
-                    b: 20.0,
-                    ki: 0.0,
+                HandDrive {
+                    x_m,
+                    v_m_s,
+                    stiffness_n_m: 300.0,
+                    damping_n_s_m: 20.0,
+                    integral_gain: 0.0,
+                    segment: self.segment,
                 }
             }
             Behaviour::Tap(tap) => {
@@ -439,33 +426,10 @@ impl SimParticipant {
         }
     }
 
-    /// The hand's reference and impedance at `now`, as the device emulator's
-    /// `HandDrive` message (the emulator applies the hand's force itself).
-    #[must_use]
-    #[expect(clippy::cast_possible_truncation, reason = "f32 is the wire's type")]
-    pub fn drive_message(&self, now: f64, sample: &DeviceSample) -> crate::device::wire::Message {
-        let d = self.drive(now, sample);
-        crate::device::wire::Message::HandDrive {
-            x_m: d.x as f32,
-            v_m_s: d.v as f32,
-            stiffness_n_m: d.k as f32,
-            damping_n_s_m: d.b as f32,
-            integral: d.ki as f32,
-            click: false,
-        }
-    }
-
     /// The force the hand applies to the device this tick, N.
     pub fn hand_force(&mut self, now: f64, dt: f64, sample: &DeviceSample) -> f64 {
         let d = self.drive(now, sample);
-        let e = d.x - sample.x_m;
-        let limit = 12.0;
-        if d.ki > 0.0 {
-            self.integral = (self.integral + d.ki * e * dt).clamp(-limit, limit);
-        } else {
-            self.integral = 0.0;
-        }
-        d.k * e + d.b * (d.v - sample.v_m_s) + self.integral
+        self.hand.force(&d, sample.x_m, sample.v_m_s, dt)
     }
 
     /// What the participant decides after this tick, if anything.

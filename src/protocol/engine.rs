@@ -1,11 +1,18 @@
 //! The session engine: a sans-IO state machine that runs a [`Plan`].
 //!
-//! The shell (headless runner, GUI) calls [`Engine::handle`] with the current
-//! session time and an [`Input`], then drains [`Engine::poll`] for
+//! The session driver (`crate::session`) calls [`Engine::handle`] with the
+//! current session time and an [`Input`], then drains [`Engine::poll`] for
 //! [`Action`]s and carries them out: load a friction model, show or ask
-//! something, write a trial record, wake the engine at a time. The engine
-//! reads no clock, touches no file or port, and draws no random numbers: the
-//! same inputs give the same actions.
+//! something, write a trial record. The engine reads no clock, touches no
+//! file or port, and draws no random numbers: the same inputs give the same
+//! actions.
+//!
+//! # Timers
+//! The engine owns its timers, as quinn-proto does: [`Engine::poll_timeout`]
+//! says when it next wants to be woken (the end of a reference phase, a
+//! break, an exploration, a Fitts test's time limit), derived from the stage
+//! it is in, and the driver calls [`Engine::handle_timeout`] once its clock
+//! has reached that time. A timeout that is no longer due does nothing.
 //!
 //! # Device samples
 //! The engine needs only the moments that matter to the protocol: the shell
@@ -85,8 +92,6 @@ pub enum Input {
         /// Cursor position, m.
         x_m: f64,
     },
-    /// A time asked for by [`Action::WakeAt`] has come.
-    Timer,
     /// The last [`Action::Record`] is on disk.
     Recorded,
     /// End the current trial as aborted (device lost, experimenter); with
@@ -170,8 +175,6 @@ pub enum Action {
     Prompt(String),
     /// Write this record to disk, then send [`Input::Recorded`].
     Record(TrialRecord),
-    /// Send [`Input::Timer`] at this session time, s.
-    WakeAt(f64),
     /// Every planned trial is done.
     Finished,
 }
@@ -329,10 +332,19 @@ struct Live {
     state: LiveState,
 }
 
+/// A live trial's state. `expired` marks an exploration whose time is up
+/// (its timeout has fired: the question is asked).
 #[derive(Debug, Clone)]
 enum LiveState {
-    Magnitude { until: f64 },
-    Paired { until: f64, active: usize },
+    Magnitude {
+        until: f64,
+        expired: bool,
+    },
+    Paired {
+        until: f64,
+        active: usize,
+        expired: bool,
+    },
     Fitts(FittsTest),
 }
 
@@ -413,17 +425,8 @@ impl Engine {
         self.stage = match (stage, input) {
             (Stage::Idle, Input::Start) => self.start(now_s),
             (Stage::Instructions, Input::Continue) => self.after_instructions(now_s),
-            (Stage::Reference { until }, Input::Continue) => {
-                let _ = until;
-                self.begin_trial(now_s, false)
-            }
-            (Stage::Reference { until }, Input::Timer) if now_s >= until => {
-                self.begin_trial(now_s, false)
-            }
+            (Stage::Reference { .. }, Input::Continue) => self.begin_trial(now_s, false),
             (Stage::Break { .. }, Input::Continue) => self.begin_trial(now_s, true),
-            (Stage::Break { until }, Input::Timer) if now_s >= until => {
-                self.begin_trial(now_s, true)
-            }
             (Stage::Prompt, Input::Continue) => self.start_live(now_s),
             (Stage::Trial(live), input) => self.live(now_s, live, input),
             (Stage::AwaitWrite { requeue }, Input::Recorded) => {
@@ -433,6 +436,52 @@ impl Engine {
                 self.begin_trial(now_s, false)
             }
             (stage, _) => stage,
+        };
+    }
+
+    /// When the engine next wants [`Engine::handle_timeout`], session time
+    /// in s (`None`: nothing is timed now).
+    #[must_use]
+    pub fn poll_timeout(&self) -> Option<f64> {
+        match &self.stage {
+            Stage::Reference { until } | Stage::Break { until } => Some(*until),
+            Stage::Trial(Live { state, .. }) => match state {
+                LiveState::Magnitude { until, expired }
+                | LiveState::Paired { until, expired, .. } => (!expired).then_some(*until),
+                LiveState::Fitts(t) => Some(t.deadline),
+            },
+            _ => None,
+        }
+    }
+
+    /// The driver's clock has reached `now_s`: fires the timeout of
+    /// [`Engine::poll_timeout`] if it is due (else does nothing).
+    pub fn handle_timeout(&mut self, now_s: f64) {
+        if self.poll_timeout().is_none_or(|due| now_s < due) {
+            return;
+        }
+        let stage = std::mem::replace(&mut self.stage, Stage::Idle);
+        self.stage = match stage {
+            Stage::Reference { .. } => self.begin_trial(now_s, false),
+            Stage::Break { .. } => self.begin_trial(now_s, true),
+            Stage::Trial(mut live) => match &mut live.state {
+                LiveState::Magnitude { expired, .. } => {
+                    *expired = true;
+                    self.out.push_back(Action::Render(None));
+                    self.out.push_back(Action::Ask(Question::Magnitude));
+                    Stage::Trial(live)
+                }
+                LiveState::Paired { expired, .. } => {
+                    *expired = true;
+                    self.out.push_back(Action::Render(None));
+                    self.out.push_back(Action::Ask(Question::PairedChoice));
+                    Stage::Trial(live)
+                }
+                LiveState::Fitts(_) => {
+                    self.finish(now_s, &live, Some("timeout".into()), None, false)
+                }
+            },
+            stage => stage,
         };
     }
 
@@ -456,7 +505,6 @@ impl Engine {
                 instructions: d.reference_instructions.clone(),
                 until_s: until,
             }));
-            self.out.push_back(Action::WakeAt(until));
             return Stage::Reference { until };
         }
         self.begin_trial(now, true)
@@ -477,7 +525,6 @@ impl Engine {
             self.out.push_back(Action::Render(None));
             self.out
                 .push_back(Action::Show(Screen::Break { until_s: until }));
-            self.out.push_back(Action::WakeAt(until));
             return Stage::Break { until };
         }
         if let TrialSpec::Fitts {
@@ -504,8 +551,10 @@ impl Engine {
                 self.out.push_back(Action::Render(Some(model.clone())));
                 self.out
                     .push_back(Action::Show(Screen::Explore { until_s: until }));
-                self.out.push_back(Action::WakeAt(until));
-                LiveState::Magnitude { until }
+                LiveState::Magnitude {
+                    until,
+                    expired: false,
+                }
             }
             TrialSpec::PairedComparison {
                 first,
@@ -519,8 +568,11 @@ impl Engine {
                     active: 0,
                     until_s: until,
                 }));
-                self.out.push_back(Action::WakeAt(until));
-                LiveState::Paired { until, active: 0 }
+                LiveState::Paired {
+                    until,
+                    active: 0,
+                    expired: false,
+                }
             }
             TrialSpec::Fitts {
                 model,
@@ -546,7 +598,6 @@ impl Engine {
                     cursor_m: *cursor_m,
                     missed: false,
                 }));
-                self.out.push_back(Action::WakeAt(t.deadline));
                 LiveState::Fitts(t)
             }
         };
@@ -571,12 +622,9 @@ impl Engine {
                     }
                 }
             }
-            (LiveState::Magnitude { until }, Input::Timer) if now >= *until => {
-                self.out.push_back(Action::Render(None));
-                self.out.push_back(Action::Ask(Question::Magnitude));
-                Stage::Trial(live)
-            }
-            (LiveState::Paired { active, until }, Input::Switch(i)) if i < 2 && now < *until => {
+            (LiveState::Paired { active, until, .. }, Input::Switch(i))
+                if i < 2 && now < *until =>
+            {
                 *active = i;
                 if let Some(TrialSpec::PairedComparison { first, second, .. }) =
                     self.trial().map(|t| &t.spec)
@@ -590,19 +638,11 @@ impl Engine {
                 }));
                 Stage::Trial(live)
             }
-            (LiveState::Paired { until, .. }, Input::Timer) if now >= *until => {
-                self.out.push_back(Action::Render(None));
-                self.out.push_back(Action::Ask(Question::PairedChoice));
-                Stage::Trial(live)
-            }
             (LiveState::Paired { .. }, Input::Answer(Answer::Paired(c))) => {
                 self.finish(now, &live, None, Some(Reply::Paired(c)), false)
             }
-            (LiveState::Fitts(t), Input::Click { x_m }) if x_m.is_finite() => {
+            (LiveState::Fitts(_), Input::Click { x_m }) if x_m.is_finite() => {
                 self.click(now, live, x_m)
-            }
-            (LiveState::Fitts(t), Input::Timer) if now >= t.deadline => {
-                self.finish(now, &live, Some("timeout".into()), None, false)
             }
             _ => Stage::Trial(live),
         }

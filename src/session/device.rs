@@ -1,0 +1,209 @@
+//! The one device abstraction a session drives: the simulated apparatus,
+//! stepped by the session in session time, or the haptic loop on a serial
+//! port, whose ticks the session reads.
+
+use std::collections::VecDeque;
+
+use crate::device::haptic::{HapticLoop, LoopStats, Tick, ToLoop};
+use crate::device::link::LinkState;
+use crate::device::sim::SimDevice;
+use crate::friction::ModelParams;
+use crate::hand::HandDrive;
+use crate::protocol::plan::{Plan, TrialSpec};
+
+/// How often the hand drive is sent to an emulated device, s.
+pub const HAND_EVERY_S: f64 = 0.005;
+
+/// Loop periods kept for the live p99, ticks.
+const PERIODS_KEPT: usize = 5000;
+
+/// The device's live state, for the experimenter.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeviceStatus {
+    /// `sim` or the port's path.
+    pub device: String,
+    /// Whether frames arrive (always true for the simulated device).
+    pub connected: bool,
+    /// Loop rate, Hz.
+    pub rate_hz: f64,
+    /// 99th percentile of the measured loop period over the last ticks, s
+    /// (None for the simulated device, which steps in session time).
+    pub period_p99_s: Option<f64>,
+    /// Rendered force, N.
+    pub force_n: f64,
+    /// Device position, m.
+    pub x_m: f64,
+}
+
+/// The haptic loop rate a plan needs: the highest loop rate of any model it
+/// renders (5 kHz for seed 001's stick-slip models, else 1 kHz).
+#[must_use]
+pub fn loop_rate_hz(plan: &Plan) -> f64 {
+    plan.trials
+        .iter()
+        .map(|t| match &t.spec {
+            TrialSpec::MagnitudeEstimation { model, .. } | TrialSpec::Fitts { model, .. } => {
+                model.loop_rate_hz()
+            }
+            TrialSpec::PairedComparison { first, second, .. } => {
+                first.model.loop_rate_hz().max(second.model.loop_rate_hz())
+            }
+        })
+        .fold(1000.0, f64::max)
+}
+
+/// A haptic loop on a serial port, with what the session tracks of it.
+pub(super) struct Port {
+    haptic: HapticLoop,
+    rate_hz: f64,
+    periods: VecDeque<f64>,
+    last_tick_s: Option<f64>,
+    pub(super) link: LinkState,
+    button: bool,
+    last_hand_s: f64,
+}
+
+impl Port {
+    pub(super) fn new(haptic: HapticLoop, rate_hz: f64) -> Self {
+        Port {
+            haptic,
+            rate_hz,
+            periods: VecDeque::with_capacity(PERIODS_KEPT),
+            last_tick_s: None,
+            link: LinkState::Connecting,
+            button: false,
+            last_hand_s: f64::NEG_INFINITY,
+        }
+    }
+
+    /// The next tick, with the loop's period and link state noted; the
+    /// second value is true on a button press (a rising edge).
+    pub(super) fn recv(&mut self) -> Option<(Tick, bool)> {
+        let tick = self.haptic.recv()?;
+        if let Some(last) = self.last_tick_s.replace(tick.now_s) {
+            if self.periods.len() == PERIODS_KEPT {
+                self.periods.pop_front();
+            }
+            self.periods.push_back(tick.now_s - last);
+        }
+        self.link = tick.link;
+        let pressed = tick.link == LinkState::Connected && tick.button && !self.button;
+        if tick.link == LinkState::Connected {
+            self.button = tick.button;
+        }
+        Some((tick, pressed))
+    }
+
+    /// Sends the hand drive to the device, at most every [`HAND_EVERY_S`]
+    /// of device time `now_s` (only the emulator has a hand to drive; real
+    /// firmware ignores the message).
+    pub(super) fn drive_hand(&mut self, now_s: f64, drive: &HandDrive) {
+        if now_s - self.last_hand_s >= HAND_EVERY_S {
+            self.last_hand_s = now_s;
+            self.haptic
+                .send(ToLoop::Device(crate::device::wire::hand_drive(drive)));
+        }
+    }
+}
+
+/// Where a session renders friction.
+pub(super) enum Device {
+    /// The simulated apparatus, stepped at `dt` (the rendered model's rate).
+    Sim { device: Box<SimDevice>, dt: f64 },
+    /// The haptic loop on a serial port.
+    Port(Box<Port>),
+    /// The haptic loop has stopped (session finished or aborted).
+    Stopped { rate_hz: f64 },
+}
+
+impl Device {
+    /// Renders `model` from now on (`None`: nothing).
+    pub(super) fn render(&mut self, model: Option<&ModelParams>) {
+        match self {
+            Device::Sim { device, dt } => {
+                device.set_model(model);
+                if let Some(m) = model {
+                    *dt = 1.0 / m.loop_rate_hz();
+                }
+            }
+            Device::Port(port) => port.haptic.send(ToLoop::Model(model.cloned())),
+            Device::Stopped { .. } => {}
+        }
+    }
+
+    /// The physical friction of a condition (the simulated apparatus only:
+    /// on a real device it is really there).
+    pub(super) fn set_physical(&mut self, model: Option<&ModelParams>) {
+        if let Device::Sim { device, .. } = self {
+            device.set_physical(model);
+        }
+    }
+
+    /// Puts the simulated device at rest at `x_m`; false on a real device,
+    /// where the hand moves there itself.
+    pub(super) fn reset(&mut self, x_m: f64) -> bool {
+        if let Device::Sim { device, .. } = self {
+            device.reset(x_m);
+            true
+        } else {
+            false
+        }
+    }
+
+    /// Whether the device answers.
+    pub(super) fn connected(&self) -> bool {
+        match self {
+            Device::Sim { .. } => true,
+            Device::Port(port) => port.link == LinkState::Connected,
+            Device::Stopped { .. } => false,
+        }
+    }
+
+    /// Stops the haptic loop, returning its statistics (None for the
+    /// simulated device or a loop already stopped).
+    pub(super) fn stop(&mut self) -> Option<LoopStats> {
+        let Device::Port(port) = self else {
+            return None;
+        };
+        let rate_hz = port.rate_hz;
+        match std::mem::replace(self, Device::Stopped { rate_hz }) {
+            Device::Port(port) => Some(port.haptic.stop()),
+            _ => None,
+        }
+    }
+
+    /// Connected, rate and period p99.
+    pub(super) fn status(&self) -> (bool, f64, Option<f64>) {
+        match self {
+            Device::Sim { dt, .. } => (true, 1.0 / dt, None),
+            Device::Stopped { rate_hz } => (false, *rate_hz, None),
+            Device::Port(port) => (
+                port.link == LinkState::Connected,
+                port.rate_hz,
+                percentile(&port.periods, 0.99),
+            ),
+        }
+    }
+}
+
+/// `q`-quantile (nearest rank) of `values`, None if empty.
+#[must_use]
+pub fn percentile<'a>(values: impl IntoIterator<Item = &'a f64>, q: f64) -> Option<f64> {
+    let mut v: Vec<f64> = values.into_iter().copied().collect();
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    #[expect(
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        reason = "a rank within the slice"
+    )]
+    let rank = ((q * count_f64(v.len())).ceil() as usize).clamp(1, v.len());
+    Some(v[rank - 1])
+}
+
+/// A count as f64 (saturating at `u32::MAX`).
+pub(super) fn count_f64(n: usize) -> f64 {
+    f64::from(u32::try_from(n).unwrap_or(u32::MAX))
+}

@@ -1,0 +1,246 @@
+//! The headless shells: thin loops that feed a [`Session`] time and read
+//! its outputs. [`run_simulated`] steps the simulated device in virtual
+//! time (paced against the wall clock with `--pace`); [`run_device`] polls
+//! a port's haptic loop in real time and decides how long a lost device may
+//! stay away; [`simulate_participants`] runs a simulated study on threads.
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use super::{Phase, Responder, Session, SessionError, SessionRequest};
+use crate::participant::SimParticipant;
+use crate::protocol::Protocol;
+use crate::results::{Header, ResultsDir};
+
+/// How a session went.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SessionOutcome {
+    /// Session number.
+    pub session: u32,
+    /// Trials completed in the whole session.
+    pub completed: usize,
+    /// Trials aborted in the whole session.
+    pub aborted: usize,
+    /// The trial a resume started at.
+    pub resumed_at: Option<usize>,
+    /// Bytes of a torn last log line cut off before resuming.
+    pub torn_bytes: u64,
+    /// Session time run by this run, s.
+    pub simulated_s: f64,
+    /// The data CSV.
+    pub csv: PathBuf,
+    /// The log.
+    pub log: PathBuf,
+}
+
+/// The simulated participant of a session's header (its traits from the plan seed and id).
+#[must_use]
+pub fn sim_participant(h: &Header) -> SimParticipant {
+    SimParticipant::new(h.plan_seed, &h.participant)
+}
+
+/// Keeps virtual time from running ahead of `pace` x the wall clock.
+struct Pacer {
+    pace: Option<f64>,
+    wall: Instant,
+    virtual_start: f64,
+}
+
+impl Pacer {
+    fn wait(&self, t: f64) {
+        let Some(pace) = self.pace.filter(|p| p.is_finite() && *p > 0.0) else {
+            return;
+        };
+        let due = Duration::from_secs_f64(((t - self.virtual_start) / pace).max(0.0));
+        if let Some(rest) = due.checked_sub(self.wall.elapsed()) {
+            std::thread::sleep(rest);
+        }
+    }
+}
+
+/// Calls `progress(trial + 1, total)` for each record the session wrote
+/// since the last call.
+fn report<R: Responder>(
+    session: &Session<R>,
+    seen: &mut usize,
+    progress: &mut dyn FnMut(usize, usize),
+) {
+    let (records, last) = session.records();
+    if records != *seen {
+        *seen = records;
+        if let Some(trial) = last {
+            progress(trial + 1, session.engine().plan().trials.len());
+        }
+    }
+}
+
+/// Runs (or resumes) one session with the simulated device and a simulated
+/// participant, in virtual time (paced by `req.pace`). `progress(done,
+/// total)` is called after each trial is on disk.
+///
+/// # Errors
+/// Bad input (resume without a session, a colliding id) or I/O.
+pub fn run_simulated(
+    dir: &ResultsDir,
+    req: &SessionRequest<'_>,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<SessionOutcome, SessionError> {
+    let mut session = Session::begin(dir, req, sim_participant)?;
+    let pacer = Pacer {
+        pace: req.pace,
+        wall: Instant::now(),
+        virtual_start: session.now_s(),
+    };
+    let (mut ticks, mut seen) = (0_u64, 0);
+    while session.phase() != Phase::Finished {
+        session.step()?;
+        report(&session, &mut seen, progress);
+        ticks += 1;
+        if ticks.is_multiple_of(64) {
+            pacer.wait(session.now_s());
+        }
+    }
+    Ok(session.outcome())
+}
+
+/// Runs (or resumes) one session on the device of `req` (a serial port; the
+/// emulator's pseudo-terminal for a simulated participant), in real time,
+/// with `responder` made from the session header answering. Nothing is
+/// written until the device answers. A device lost mid-trial costs that
+/// trial (aborted and re-queued) and holds the session until it answers
+/// again; after `timeout_s` without an answer the run gives up.
+///
+/// # Errors
+/// Bad input, I/O on the results, or a device silent for longer than the
+/// timeout.
+pub fn run_device<R: Responder>(
+    dir: &ResultsDir,
+    req: &SessionRequest<'_>,
+    timeout_s: f64,
+    responder: impl FnOnce(&Header) -> R,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<SessionOutcome, SessionError> {
+    let mut session = Session::begin(dir, req, responder)?;
+    let wall = Instant::now();
+    let mut seen = 0;
+    loop {
+        session.poll_device()?;
+        report(&session, &mut seen, progress);
+        if session.phase() == Phase::Finished {
+            return Ok(session.outcome());
+        }
+        if !session.is_open() && wall.elapsed().as_secs_f64() > timeout_s {
+            session.stop_device()?;
+            return Err(SessionError::NeverConnected { timeout_s });
+        }
+        if session.lost_for_s().is_some_and(|s| s > timeout_s) {
+            session.stop_device()?;
+            return Err(SessionError::Lost {
+                timeout_s,
+                completed: session.completed(),
+            });
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}
+
+/// Plan seed of simulated participant `i` of a study seeded with `seed`
+/// (`SplitMix64` of the pair, so seeds of neighbouring participants differ).
+#[must_use]
+pub fn participant_seed(seed: u64, i: u32) -> u64 {
+    let mut z = seed.wrapping_add(
+        u64::from(i)
+            .wrapping_add(1)
+            .wrapping_mul(0x9e37_79b9_7f4a_7c15),
+    );
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// A simulated study: `participants` whole sessions of `protocol` with
+/// simulated participants `sim-001`, `sim-002`, ... (participant index i,
+/// plan seed [`participant_seed`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Simulation<'a> {
+    /// The protocol, as parsed.
+    pub protocol: &'a Protocol,
+    /// Its file's bytes (hashed into each log header).
+    pub protocol_bytes: &'a [u8],
+    /// How many participants.
+    pub participants: u32,
+    /// The study seed.
+    pub seed: u64,
+    /// Simulated time runs `pace` x faster than real time; `None`: as fast
+    /// as possible.
+    pub pace: Option<f64>,
+    /// Record each trial's device stream.
+    pub streams: bool,
+    /// Sessions run at once, on as many threads (at least 1). Each session
+    /// depends only on its participant's seed, so the files are the same
+    /// byte for byte whatever the number.
+    pub jobs: usize,
+}
+
+/// Runs a [`Simulation`]; the outcomes come in participant order.
+/// `progress(trials done in all sessions)` is called after each trial (from
+/// the worker threads). After a session fails, no new one starts; the first
+/// failure (in participant order) is returned.
+///
+/// # Errors
+/// As [`run_simulated`].
+pub fn simulate_participants(
+    dir: &ResultsDir,
+    sim: &Simulation<'_>,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<Vec<SessionOutcome>, SessionError> {
+    use std::sync::Mutex;
+    use std::sync::atomic::{AtomicBool, AtomicU32, AtomicUsize, Ordering};
+    let (next, done, failed) = (
+        AtomicU32::new(0),
+        AtomicUsize::new(0),
+        AtomicBool::new(false),
+    );
+    let outcomes: Mutex<Vec<(u32, Result<SessionOutcome, SessionError>)>> = Mutex::default();
+    let work = || {
+        while !failed.load(Ordering::Relaxed) {
+            let i = next.fetch_add(1, Ordering::Relaxed);
+            if i >= sim.participants {
+                break;
+            }
+            let id = format!("sim-{:03}", i + 1);
+            let req = SessionRequest {
+                protocol: sim.protocol,
+                protocol_bytes: sim.protocol_bytes,
+                participant: &id,
+                participant_index: Some(i),
+                seed: participant_seed(sim.seed, i),
+                resume: false,
+                pace: sim.pace,
+                device: &super::DeviceChoice::Simulated,
+                streams: sim.streams,
+            };
+            let mut reported = 0;
+            let outcome = run_simulated(dir, &req, &mut |trial, _| {
+                let new = trial.saturating_sub(reported);
+                reported = reported.max(trial);
+                progress(done.fetch_add(new, Ordering::Relaxed) + new);
+            });
+            failed.fetch_or(outcome.is_err(), Ordering::Relaxed);
+            if let Ok(mut list) = outcomes.lock() {
+                list.push((i, outcome));
+            }
+        }
+    };
+    std::thread::scope(|scope| {
+        for _ in 1..sim.jobs.min(sim.participants as usize) {
+            scope.spawn(work);
+        }
+        work();
+    });
+    let mut list = outcomes
+        .into_inner()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    list.sort_by_key(|(i, _)| *i);
+    list.into_iter().map(|(_, outcome)| outcome).collect()
+}

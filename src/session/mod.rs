@@ -1,0 +1,783 @@
+//! The session driver: the one loop that runs a session, whoever answers
+//! and whatever renders.
+//!
+//! A [`Session`] owns the engine, the pending inputs, the open log (with its
+//! CSV and streams), the [`Responder`] (a simulated participant, or a
+//! [`Person`] at the window) and the device (the simulated apparatus, or the
+//! haptic loop on a serial port). The shells only feed it time and read its
+//! outputs:
+//! - headless runs ([`headless`]): [`Session::step`] once per tick of the
+//!   simulated device, in virtual time; or [`Session::poll_device`] every
+//!   millisecond on a port;
+//! - the window: [`Session::advance`] once per frame with the wall clock,
+//!   plus the person's inputs ([`Session::input`], [`Session::click`]).
+//!
+//! # Order of work, each time the session is fed
+//! 1. Device samples: each sample is recorded in the trial's stream (while
+//!    a trial is presented), shown to the responder (whose inputs queue),
+//!    and the engine's timeout ([`Engine::poll_timeout`]) queues once due.
+//! 2. Settle: the engine's actions are carried out in order (render, show,
+//!    write a record), the responder reacting to each; then the next
+//!    pending input goes to the engine; repeat until nothing is pending.
+//!    A record is on disk (stream, log line fsync'd, CSV) before
+//!    `Recorded` queues, so the next trial starts only after it.
+//!
+//! # One session clock
+//! Session time `t` (s) starts at 0 for a new session and at the last
+//! logged trial's end when resuming; trial times and stream `t_s` are on it.
+//! The simulated device advances it by its step; a port's loop clock is only
+//! mapped onto it (`t = start + loop time`), so it never goes backwards
+//! across a resume.
+//!
+//! # One lost-device rule
+//! A device that stops answering at any point of a trial (stimulus,
+//! exploration, answer, Fitts movement: whenever [`Engine::in_trial`]) has
+//! that trial aborted and re-queued at once; every other input waits until
+//! the device answers again. How long to wait is the shell's call
+//! ([`Session::lost_for_s`]).
+//!
+//! # Pause and abort (the window)
+//! Pausing while a trial is presented aborts that trial with `requeue`
+//! (logged as aborted, "paused by the experimenter"), so it is presented
+//! again in full on resume; the device renders nothing while paused.
+//! Aborting the session does the same, then stops the device and leaves the
+//! log without an `end` line, so the session can be resumed later.
+//!
+//! # Files
+//! With the simulated device the log opens at start; on a port only at the
+//! first connected tick, so a device that never answers leaves no session
+//! behind. Notes typed before then wait for the log.
+
+pub mod device;
+pub mod headless;
+pub mod open;
+pub mod record;
+pub mod responder;
+pub mod view;
+
+use std::collections::VecDeque;
+use std::path::{Path, PathBuf};
+
+pub use device::{DeviceStatus, HAND_EVERY_S, loop_rate_hz, percentile};
+pub use headless::{
+    SessionOutcome, Simulation, participant_seed, run_device, run_simulated, sim_participant,
+    simulate_participants,
+};
+pub use open::{DeviceChoice, OpenLog, Planned, SessionRequest, plan};
+pub use record::StreamRecorder;
+pub use responder::{
+    MOUSE_HAND_DAMPING_N_S_M, MOUSE_HAND_MASS_KG, MOUSE_HAND_STIFFNESS_N_M, Person, Reaction,
+    Responder,
+};
+pub use view::{Phase, Progress, TRACE_EVERY_S, TRACE_LENGTH_S, TracePoint, View};
+
+use crate::device::DeviceSample;
+use crate::device::haptic::HapticLoop;
+use crate::device::link::LinkState;
+use crate::device::sim::{Apparatus, SimDevice};
+use crate::friction::ForceLimit;
+use crate::protocol::engine::{Action, Engine, Input};
+use crate::results::{Header, LogLine, ResultsDir, ResultsError};
+use device::{Device, Port, count_f64};
+use view::Trace;
+
+/// The session a person runs from the window.
+pub type LiveSession = Session<Person>;
+
+/// Longest session-time step one frame may take with the simulated device, s.
+pub const MAX_FRAME_STEP_S: f64 = 0.5;
+
+/// Why a session could not start or go on.
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    /// Bad input or I/O on the results folder.
+    #[error(transparent)]
+    Results(#[from] ResultsError),
+    /// Resuming, but the participant has no session of the protocol.
+    #[error("participant '{participant}' has no session of '{protocol}' in {}", dir.display())]
+    NothingToResume {
+        /// The participant id.
+        participant: String,
+        /// The protocol id.
+        protocol: String,
+        /// The results folder.
+        dir: PathBuf,
+    },
+    /// Resuming, but the participant's last session has ended.
+    #[error("session {session} of participant '{participant}' has ended: nothing to resume")]
+    Ended {
+        /// The participant id.
+        participant: String,
+        /// The session number.
+        session: u32,
+    },
+    /// The device gave no valid frame for the timeout. Completed trials are
+    /// in the log.
+    #[error(
+        "no answer from the device for {timeout_s} s ({completed} trials completed are in the log)"
+    )]
+    Lost {
+        /// The timeout, s.
+        timeout_s: f64,
+        /// Trials completed before.
+        completed: usize,
+    },
+    /// The device never answered within the timeout; no session was
+    /// started or resumed (nothing written).
+    #[error("no answer from the device for {timeout_s} s; no session was started")]
+    NeverConnected {
+        /// The timeout, s.
+        timeout_s: f64,
+    },
+    /// The haptic loop could not start.
+    #[error("cannot start the haptic loop: {0}")]
+    Loop(std::io::Error),
+}
+
+/// The session's files: planned (nothing written; notes wait), or open.
+enum Log {
+    Planned {
+        planned: Box<Planned>,
+        dir: ResultsDir,
+        notes: Vec<String>,
+    },
+    Open(Box<OpenLog>),
+}
+
+impl Log {
+    /// Opens planned files, writing the notes that waited; open files stay.
+    fn open(&mut self) -> Result<&mut OpenLog, ResultsError> {
+        if let Log::Planned {
+            planned,
+            dir,
+            notes,
+        } = self
+        {
+            let mut open = planned.open(dir)?;
+            for text in notes.drain(..) {
+                open.log.append(&LogLine::Note { text })?;
+            }
+            *self = Log::Open(Box::new(open));
+        }
+        match self {
+            Log::Open(open) => Ok(open),
+            Log::Planned { .. } => Err(ResultsError::Input {
+                place: "session".into(),
+                message: "the session's files are not open".into(),
+            }),
+        }
+    }
+
+    fn opened(&mut self) -> Option<&mut OpenLog> {
+        match self {
+            Log::Open(open) => Some(open),
+            Log::Planned { .. } => None,
+        }
+    }
+
+    fn header(&self) -> &Header {
+        match self {
+            Log::Open(open) => &open.read.header,
+            Log::Planned { planned, .. } => planned.header(),
+        }
+    }
+}
+
+/// An input waiting for the engine, or the engine's due timeout.
+enum Pending {
+    Input(Input),
+    Timeout,
+}
+
+/// A session being run: see the module docs.
+pub struct Session<R: Responder> {
+    engine: Engine,
+    log: Log,
+    device: Device,
+    device_label: String,
+    responder: R,
+    sample: DeviceSample,
+    t: f64,
+    start_t: f64,
+    pending: VecDeque<Pending>,
+    timeout_queued: bool,
+    phase: Phase,
+    view: View,
+    trace: Option<Trace>,
+    lost_since: Option<f64>,
+    resumed_at: Option<usize>,
+    records: usize,
+    last_record: Option<usize>,
+    done_this_run: usize,
+    wall: Option<f64>,
+}
+
+impl<R: Responder> Session<R> {
+    /// Plans (or resumes) a session and starts its device; `responder` makes
+    /// the responder from the session's header (a simulated participant is
+    /// drawn from its plan seed and id). With the simulated device the log
+    /// opens now; on a port at the first connected tick.
+    ///
+    /// # Errors
+    /// Bad input (resume without an unfinished session), I/O, or a haptic
+    /// loop that cannot start.
+    pub fn begin(
+        dir: &ResultsDir,
+        req: &SessionRequest<'_>,
+        responder: impl FnOnce(&Header) -> R,
+    ) -> Result<Self, SessionError> {
+        let planned = open::plan(dir, req, R::LABEL)?;
+        let responder = responder(planned.header());
+        let (start_at, start_t) = (planned.start_at(), planned.start_time());
+        let resumed_at = planned.resumes().then_some(start_at);
+        let engine = Engine::new(planned.plan.clone(), start_at);
+        let rate_hz = loop_rate_hz(&planned.plan);
+        let mut log = Log::Planned {
+            planned: Box::new(planned),
+            dir: dir.clone(),
+            notes: Vec::new(),
+        };
+        let device = match req.device {
+            DeviceChoice::Simulated => {
+                log.open()?;
+                Device::Sim {
+                    device: Box::new(SimDevice::new(
+                        Apparatus::default(),
+                        responder.hand_mass_kg(),
+                    )),
+                    dt: 1e-3,
+                }
+            }
+            DeviceChoice::Port(path) => {
+                let haptic = HapticLoop::start(path.clone(), rate_hz, true, ForceLimit::default())
+                    .map_err(SessionError::Loop)?;
+                Device::Port(Box::new(Port::new(haptic, rate_hz)))
+            }
+        };
+        Ok(Session {
+            engine,
+            log,
+            device,
+            device_label: req.device.label(),
+            responder,
+            sample: DeviceSample::default(),
+            t: start_t,
+            start_t,
+            pending: VecDeque::from([Pending::Input(Input::Start)]),
+            timeout_queued: false,
+            phase: Phase::Running,
+            view: View::default(),
+            trace: None,
+            lost_since: None,
+            resumed_at,
+            records: 0,
+            last_record: None,
+            done_this_run: 0,
+            wall: None,
+        })
+    }
+
+    /// Keeps a live trace of the device (for the window).
+    #[must_use]
+    pub fn with_trace(mut self) -> Self {
+        self.trace = Some(Trace::default());
+        self
+    }
+
+    /// One tick of the simulated device, in virtual time: the pending
+    /// inputs settle, then the hand and device advance by the model's step.
+    /// Does nothing on a port (see [`Session::poll_device`]).
+    ///
+    /// # Errors
+    /// I/O on the log or CSV.
+    pub fn step(&mut self) -> Result<(), ResultsError> {
+        self.settle()?;
+        if self.phase == Phase::Running {
+            self.tick_sim();
+        }
+        Ok(())
+    }
+
+    fn tick_sim(&mut self) {
+        let Device::Sim { device, dt } = &mut self.device else {
+            return;
+        };
+        let dt = *dt;
+        let force = self.responder.hand_force(self.t, dt, &self.sample);
+        self.sample = device.step(dt, force);
+        self.t += dt;
+        self.observe();
+    }
+
+    /// Reads every tick the haptic loop has reported, then settles. Does
+    /// nothing more with the simulated device.
+    ///
+    /// # Errors
+    /// I/O on the log or CSV.
+    pub fn poll_device(&mut self) -> Result<(), ResultsError> {
+        while let Device::Port(port) = &mut self.device
+            && let Some((tick, pressed)) = port.recv()
+        {
+            self.t = self.start_t + tick.now_s;
+            if tick.link != LinkState::Connected {
+                self.lost();
+                continue;
+            }
+            self.lost_since = None;
+            self.sample = DeviceSample {
+                x_m: tick.x_m,
+                v_m_s: tick.v_m_s,
+                force_n: tick.force_n,
+                vibration: tick.vibration,
+            };
+            if let Some(drive) = self.responder.drive(self.t, &self.sample) {
+                port.drive_hand(tick.now_s, &drive);
+            }
+            if pressed && self.phase == Phase::Running {
+                self.queue(Input::Click { x_m: tick.x_m });
+            }
+            self.observe();
+        }
+        self.settle()
+    }
+
+    /// Advances the session to the window's frame at wall-clock time
+    /// `wall_s` (any monotonic clock, s): the simulated device steps by the
+    /// frame's time (at most [`MAX_FRAME_STEP_S`]; not while paused), a
+    /// port's ticks are read.
+    ///
+    /// # Errors
+    /// I/O on the log or CSV.
+    pub fn advance(&mut self, wall_s: f64) -> Result<(), ResultsError> {
+        let step = self
+            .wall
+            .map_or(0.0, |w| (wall_s - w).clamp(0.0, MAX_FRAME_STEP_S));
+        self.wall = Some(wall_s);
+        if !matches!(self.phase, Phase::Running | Phase::Paused) {
+            return Ok(());
+        }
+        let end = self.t + step;
+        loop {
+            self.settle()?;
+            match &self.device {
+                Device::Sim { dt, .. }
+                    if self.phase == Phase::Running && self.t + dt <= end + 1e-12 =>
+                {
+                    self.tick_sim();
+                }
+                Device::Port(_) => return self.poll_device(),
+                _ => return Ok(()),
+            }
+        }
+    }
+
+    /// After each device sample: its stream, the trace, the responder, and
+    /// the engine's timeout when due.
+    fn observe(&mut self) {
+        if self.engine.in_trial()
+            && let Some(open) = self.log.opened()
+        {
+            open.streams.push(self.t, &self.sample);
+        }
+        if let Some(trace) = &mut self.trace {
+            trace.observe(self.t, &self.sample);
+        }
+        let reaction = self.responder.decide(self.t, &self.sample);
+        self.apply(reaction);
+        if !self.timeout_queued && self.engine.poll_timeout().is_some_and(|due| due <= self.t) {
+            self.timeout_queued = true;
+            self.pending.push_back(Pending::Timeout);
+        }
+    }
+
+    /// The one lost-device rule (module docs).
+    fn lost(&mut self) {
+        self.lost_since.get_or_insert(self.t);
+        if self.engine.in_trial() {
+            self.interrupt_trial("device lost");
+        }
+    }
+
+    /// Queues an abort (re-queued) of the trial under way, ahead of every
+    /// other input, unless one is queued already.
+    fn interrupt_trial(&mut self, reason: &str) {
+        if !matches!(
+            self.pending.front(),
+            Some(Pending::Input(Input::Abort { .. }))
+        ) {
+            self.pending.push_front(Pending::Input(Input::Abort {
+                reason: reason.into(),
+                requeue: true,
+            }));
+        }
+    }
+
+    fn queue(&mut self, input: Input) {
+        self.pending.push_back(Pending::Input(input));
+    }
+
+    fn apply(&mut self, reaction: Reaction) {
+        if let Some(x_m) = reaction.reset_to
+            && self.device.reset(x_m)
+        {
+            self.sample = DeviceSample {
+                x_m,
+                ..DeviceSample::default()
+            };
+        }
+        self.pending
+            .extend(reaction.inputs.into_iter().map(Pending::Input));
+    }
+
+    /// Carries out the engine's actions and feeds it pending inputs until
+    /// nothing moves. Inputs wait while paused or while the device is lost;
+    /// an abort goes through.
+    fn settle(&mut self) -> Result<(), ResultsError> {
+        loop {
+            while let Some(action) = self.engine.poll() {
+                self.act(&action)?;
+            }
+            let connected = self.device.connected();
+            if connected {
+                self.log.open()?;
+            }
+            let flows = self.phase == Phase::Running && connected;
+            let next = match self.pending.front() {
+                Some(Pending::Input(Input::Abort { .. })) => self.pending.pop_front(),
+                Some(_) if flows => self.pending.pop_front(),
+                _ => None,
+            };
+            match next {
+                None => return Ok(()),
+                Some(Pending::Input(input)) => self.engine.handle(self.t, input),
+                Some(Pending::Timeout) => {
+                    self.timeout_queued = false;
+                    self.engine.handle_timeout(self.t);
+                }
+            }
+        }
+    }
+
+    fn act(&mut self, action: &Action) -> Result<(), ResultsError> {
+        self.view.follow(action);
+        match action {
+            Action::Render(model) => self.device.render(model.as_ref()),
+            Action::Physical(model) => self.device.set_physical(model.as_ref()),
+            Action::Record(record) => {
+                self.log.open()?.write_record(record)?;
+                self.records += 1;
+                self.last_record = Some(record.trial);
+                if !record.requeued {
+                    self.done_this_run += 1;
+                }
+                self.queue(Input::Recorded);
+            }
+            Action::Finished => {
+                self.stop_device()?;
+                self.log.open()?.write_end()?;
+                self.phase = Phase::Finished;
+                return Ok(());
+            }
+            Action::Show(_) | Action::Ask(_) | Action::Refused(_) | Action::Prompt(_) => {}
+        }
+        let reaction = self
+            .responder
+            .on_action(self.t, action, self.engine.trial());
+        self.apply(reaction);
+        Ok(())
+    }
+
+    /// Stops the haptic loop, putting its statistics in the log (a session
+    /// whose device never answered has no log to hold them).
+    ///
+    /// # Errors
+    /// I/O on the log.
+    pub fn stop_device(&mut self) -> Result<(), ResultsError> {
+        if let Some(stats) = self.device.stop()
+            && let Some(open) = self.log.opened()
+        {
+            open.log.append(&LogLine::Loop(stats))?;
+        }
+        Ok(())
+    }
+
+    /// Sends an input from the participant or experimenter (an answer,
+    /// Continue, a stimulus switch) and carries out what follows. Ignored
+    /// unless running.
+    ///
+    /// # Errors
+    /// I/O on the log or CSV.
+    pub fn input(&mut self, input: Input) -> Result<(), ResultsError> {
+        if self.phase != Phase::Running {
+            return Ok(());
+        }
+        self.queue(input);
+        self.settle()
+    }
+
+    /// A Fitts click (mouse, space bar) at the device's current position.
+    ///
+    /// # Errors
+    /// I/O on the log or CSV.
+    pub fn click(&mut self) -> Result<(), ResultsError> {
+        let x_m = self.sample.x_m;
+        self.input(Input::Click { x_m })
+    }
+
+    /// Pauses: a trial being presented is aborted and presented again on
+    /// resume; nothing is rendered while paused.
+    ///
+    /// # Errors
+    /// I/O on the log or CSV.
+    pub fn pause(&mut self) -> Result<(), ResultsError> {
+        if self.phase != Phase::Running {
+            return Ok(());
+        }
+        self.phase = Phase::Paused;
+        self.interrupt("paused by the experimenter")
+    }
+
+    /// Resumes after [`Session::pause`].
+    ///
+    /// # Errors
+    /// I/O on the log or CSV.
+    pub fn resume(&mut self) -> Result<(), ResultsError> {
+        if self.phase != Phase::Paused {
+            return Ok(());
+        }
+        self.phase = Phase::Running;
+        self.settle()
+    }
+
+    /// Aborts the session: a trial being presented is logged as aborted
+    /// (and re-queued), the device stops, and the log stays open-ended so
+    /// the session can be resumed.
+    ///
+    /// # Errors
+    /// I/O on the log or CSV.
+    pub fn abort(&mut self) -> Result<(), ResultsError> {
+        if !matches!(self.phase, Phase::Running | Phase::Paused) {
+            return Ok(());
+        }
+        // Hold the engine where it is: the aborted trial's `Recorded` is
+        // not delivered, so no next trial starts.
+        self.phase = Phase::Paused;
+        self.interrupt("session aborted by the experimenter")?;
+        self.stop_device()?;
+        self.phase = Phase::Aborted;
+        self.view = View::default();
+        Ok(())
+    }
+
+    fn interrupt(&mut self, reason: &str) -> Result<(), ResultsError> {
+        if self.engine.in_trial() {
+            self.interrupt_trial(reason);
+            self.settle()?;
+        }
+        self.device.render(None);
+        Ok(())
+    }
+
+    /// Appends the experimenter's note to the session log (held until the
+    /// log opens).
+    ///
+    /// # Errors
+    /// I/O on the log.
+    pub fn note(&mut self, text: &str) -> Result<(), ResultsError> {
+        match &mut self.log {
+            Log::Open(open) => open.log.append(&LogLine::Note {
+                text: text.to_owned(),
+            }),
+            Log::Planned { notes, .. } => {
+                notes.push(text.to_owned());
+                Ok(())
+            }
+        }
+    }
+
+    /// What the participant's screen shows.
+    #[must_use]
+    pub fn view(&self) -> &View {
+        &self.view
+    }
+
+    /// Where the session stands.
+    #[must_use]
+    pub fn phase(&self) -> Phase {
+        self.phase
+    }
+
+    /// Whether the log is open (on a port: the device has answered).
+    #[must_use]
+    pub fn is_open(&self) -> bool {
+        matches!(self.log, Log::Open(_))
+    }
+
+    /// How long the device has not answered, s (None while it answers).
+    #[must_use]
+    pub fn lost_for_s(&self) -> Option<f64> {
+        self.lost_since.map(|since| self.t - since)
+    }
+
+    /// Records written by this run, and the planned index of the last.
+    #[must_use]
+    pub fn records(&self) -> (usize, Option<usize>) {
+        (self.records, self.last_record)
+    }
+
+    /// Trials completed in the whole session so far.
+    #[must_use]
+    pub fn completed(&self) -> usize {
+        match &self.log {
+            Log::Open(open) => open.read.completed(),
+            Log::Planned { .. } => 0,
+        }
+    }
+
+    /// The responder.
+    pub fn responder_mut(&mut self) -> &mut R {
+        &mut self.responder
+    }
+
+    /// Session number.
+    #[must_use]
+    pub fn session(&self) -> u32 {
+        self.log.header().session
+    }
+
+    /// The plan seed (logged in the header).
+    #[must_use]
+    pub fn plan_seed(&self) -> u64 {
+        self.log.header().plan_seed
+    }
+
+    /// The participant id.
+    #[must_use]
+    pub fn participant(&self) -> &str {
+        &self.log.header().participant
+    }
+
+    /// The data CSV.
+    #[must_use]
+    pub fn csv(&self) -> &Path {
+        match &self.log {
+            Log::Open(open) => &open.csv,
+            Log::Planned { planned, .. } => &planned.files().csv,
+        }
+    }
+
+    /// The session log.
+    #[must_use]
+    pub fn log_path(&self) -> &Path {
+        match &self.log {
+            Log::Open(open) => open.log.path(),
+            Log::Planned { planned, .. } => &planned.files().log,
+        }
+    }
+
+    /// Session time, s.
+    #[must_use]
+    pub fn now_s(&self) -> f64 {
+        self.t
+    }
+
+    /// The latest device sample.
+    #[must_use]
+    pub fn sample(&self) -> DeviceSample {
+        self.sample
+    }
+
+    /// The last [`TRACE_LENGTH_S`] of position and force (empty without
+    /// [`Session::with_trace`]).
+    #[must_use]
+    pub fn trace(&self) -> &VecDeque<TracePoint> {
+        static EMPTY: VecDeque<TracePoint> = VecDeque::new();
+        self.trace.as_ref().map_or(&EMPTY, |t| &t.points)
+    }
+
+    /// The engine (plan, current trial).
+    #[must_use]
+    pub fn engine(&self) -> &Engine {
+        &self.engine
+    }
+
+    /// Progress.
+    #[must_use]
+    pub fn progress(&self) -> Progress {
+        let total = self.engine.plan().trials.len();
+        let index = self.engine.trial_index();
+        let left = total.saturating_sub(index);
+        let remaining_s = (self.done_this_run > 0)
+            .then(|| (self.t - self.start_t) / count_f64(self.done_this_run) * count_f64(left));
+        Progress {
+            trial: (index + 1).min(total),
+            total,
+            block: self
+                .engine
+                .trial()
+                .map(|t| t.block.clone())
+                .unwrap_or_default(),
+            elapsed_s: self.t,
+            remaining_s: if self.phase == Phase::Finished {
+                Some(0.0)
+            } else {
+                remaining_s
+            },
+        }
+    }
+
+    /// The device's live state.
+    #[must_use]
+    pub fn device_status(&self) -> DeviceStatus {
+        let (connected, rate_hz, period_p99_s) = self.device.status();
+        DeviceStatus {
+            device: self.device_label.clone(),
+            connected,
+            rate_hz,
+            period_p99_s,
+            force_n: self.sample.force_n,
+            x_m: self.sample.x_m,
+        }
+    }
+
+    /// How the run went so far.
+    #[must_use]
+    pub fn outcome(&self) -> SessionOutcome {
+        let (completed, aborted) = match &self.log {
+            Log::Open(open) => (
+                open.read.completed(),
+                open.read.trials.len() - open.read.completed(),
+            ),
+            Log::Planned { .. } => (0, 0),
+        };
+        SessionOutcome {
+            session: self.session(),
+            completed,
+            aborted,
+            resumed_at: self.resumed_at,
+            torn_bytes: match &self.log {
+                Log::Open(open) => open.torn_bytes,
+                Log::Planned { .. } => 0,
+            },
+            simulated_s: self.t - self.start_t,
+            csv: self.csv().to_owned(),
+            log: self.log_path().to_owned(),
+        }
+    }
+}
+
+impl Session<Person> {
+    /// Starts (or resumes) a session a person runs from the window (logged
+    /// with responder `gui`), with a live trace.
+    ///
+    /// # Errors
+    /// As [`Session::begin`].
+    pub fn start(dir: &ResultsDir, req: &SessionRequest<'_>) -> Result<Self, SessionError> {
+        Ok(Session::begin(dir, req, |_| Person::default())?.with_trace())
+    }
+
+    /// Where the mouse holds the hand, m (`None`: the pointer is away).
+    pub fn set_hand_target(&mut self, x_m: Option<f64>) {
+        self.responder.set_hand_target(x_m);
+    }
+}

@@ -1,0 +1,255 @@
+//! The two stages before a session runs: [`plan`] checks a request against
+//! the results folder and draws the plan (it reads only), and
+//! [`Planned::open`] writes: a new session's header, empty CSV and dataset
+//! description, or the unfinished session's `resumed` line. A device
+//! session connects in between, so a device that never answers leaves no
+//! session behind.
+
+use std::path::PathBuf;
+
+use super::SessionError;
+use super::record::StreamRecorder;
+use crate::protocol::Protocol;
+use crate::protocol::plan::{Plan, resolve};
+use crate::results::{
+    Header, LOG_FORMAT, LogLine, ReadLog, ResultsDir, ResultsError, SessionFiles, SessionLog,
+    data_csv, kinds_present, read_log, replace_file, sha256_hex, write_dataset_description,
+};
+
+/// Where a session renders friction.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum DeviceChoice {
+    /// The simulated apparatus, stepped in session time.
+    Simulated,
+    /// A haptic device on this serial port (or the emulator's pty).
+    Port(PathBuf),
+}
+
+impl DeviceChoice {
+    /// As logged: `sim` or the port's path.
+    #[must_use]
+    pub fn label(&self) -> String {
+        match self {
+            DeviceChoice::Simulated => "sim".into(),
+            DeviceChoice::Port(p) => p.display().to_string(),
+        }
+    }
+}
+
+/// What to run.
+#[derive(Debug, Clone)]
+pub struct SessionRequest<'a> {
+    /// The checked protocol.
+    pub protocol: &'a Protocol,
+    /// The protocol file's bytes (hashed into the log header).
+    pub protocol_bytes: &'a [u8],
+    /// Participant id (already checked).
+    pub participant: &'a str,
+    /// Counterbalancing index; default: participants already in the folder.
+    pub participant_index: Option<u32>,
+    /// Plan seed of a new session (a resumed one keeps its own).
+    pub seed: u64,
+    /// Continue the participant's last unfinished session.
+    pub resume: bool,
+    /// Virtual time runs this many times faster than real time; `None`: as
+    /// fast as possible (headless simulated sessions only).
+    pub pace: Option<f64>,
+    /// The device.
+    pub device: &'a DeviceChoice,
+    /// Record each trial's device stream (`streams/`, see [`StreamRecorder`]).
+    pub streams: bool,
+}
+
+/// A session checked and planned; nothing written yet.
+#[derive(Debug)]
+pub struct Planned {
+    /// The session's plan.
+    pub plan: Plan,
+    opening: Opening,
+    streams: bool,
+}
+
+#[derive(Debug)]
+enum Opening {
+    /// The participant's unfinished session, read back.
+    Resume {
+        read: Box<ReadLog>,
+        files: SessionFiles,
+    },
+    /// A new session with this header.
+    New {
+        header: Box<Header>,
+        files: SessionFiles,
+    },
+}
+
+/// The open session: its log, what it holds, its CSV and stream recorder.
+#[derive(Debug)]
+pub struct OpenLog {
+    /// The append-only log.
+    pub log: SessionLog,
+    /// The log as read back, with every record written since.
+    pub read: ReadLog,
+    /// The data CSV, rewritten from the log after each record.
+    pub csv: PathBuf,
+    /// The per-trial device streams.
+    pub streams: StreamRecorder,
+    /// Bytes of a torn last line cut before resuming.
+    pub torn_bytes: u64,
+}
+
+/// Checks the request against the results folder and plans the session: a
+/// new one, or the participant's unfinished one when resuming. Reads only.
+/// `responder` is logged in a new header.
+///
+/// # Errors
+/// Resuming without an unfinished session; an unreadable log.
+pub fn plan(
+    dir: &ResultsDir,
+    req: &SessionRequest<'_>,
+    responder: &str,
+) -> Result<Planned, SessionError> {
+    let id = &req.protocol.id;
+    let sessions = dir.sessions(id, req.participant)?;
+    if req.resume {
+        let Some(last) = sessions.into_iter().next_back() else {
+            return Err(SessionError::NothingToResume {
+                participant: req.participant.to_owned(),
+                protocol: id.clone(),
+                dir: dir.root().to_owned(),
+            });
+        };
+        let read = read_log(&last.log)?;
+        if read.ended {
+            return Err(SessionError::Ended {
+                participant: req.participant.to_owned(),
+                session: last.session,
+            });
+        }
+        let h = &read.header;
+        return Ok(Planned {
+            plan: resolve(&h.protocol, h.plan_seed, h.participant_index),
+            opening: Opening::Resume {
+                read: Box::new(read),
+                files: last,
+            },
+            streams: req.streams,
+        });
+    }
+    let session = sessions.last().map_or(1, |s| s.session + 1);
+    let files = dir.files(id, req.participant, session);
+    let participant_index = req
+        .participant_index
+        .unwrap_or_else(|| dir.other_participants(id, req.participant));
+    let plan = resolve(req.protocol, req.seed, participant_index);
+    let header = Header {
+        format: LOG_FORMAT.into(),
+        software_version: env!("CARGO_PKG_VERSION").into(),
+        protocol_id: id.clone(),
+        protocol_sha256: sha256_hex(req.protocol_bytes),
+        protocol: req.protocol.clone(),
+        plan_seed: req.seed,
+        participant: req.participant.to_owned(),
+        participant_index,
+        session,
+        device: req.device.label(),
+        responder: responder.into(),
+        planned_trials: plan.trials.len(),
+    };
+    Ok(Planned {
+        plan,
+        opening: Opening::New {
+            header: Box::new(header),
+            files,
+        },
+        streams: req.streams,
+    })
+}
+
+impl Planned {
+    /// The session's header (a new one's, or the resumed one's).
+    #[must_use]
+    pub fn header(&self) -> &Header {
+        match &self.opening {
+            Opening::Resume { read, .. } => &read.header,
+            Opening::New { header, .. } => header,
+        }
+    }
+
+    /// The session's number and files.
+    #[must_use]
+    pub fn files(&self) -> &SessionFiles {
+        match &self.opening {
+            Opening::Resume { files, .. } | Opening::New { files, .. } => files,
+        }
+    }
+
+    /// Session time where this run starts, s: 0 for a new session, the last
+    /// logged trial's end for a resumed one (the session clock goes on).
+    #[must_use]
+    pub fn start_time(&self) -> f64 {
+        match &self.opening {
+            Opening::Resume { read, .. } => read.trials.last().map_or(0.0, |r| r.ended_s),
+            Opening::New { .. } => 0.0,
+        }
+    }
+
+    /// The first trial this run presents.
+    #[must_use]
+    pub fn start_at(&self) -> usize {
+        match &self.opening {
+            Opening::Resume { read, .. } => read.next_trial(),
+            Opening::New { .. } => 0,
+        }
+    }
+
+    /// Whether this run resumes an unfinished session.
+    #[must_use]
+    pub fn resumes(&self) -> bool {
+        matches!(self.opening, Opening::Resume { .. })
+    }
+
+    /// Opens the session's log: a new session (header, empty CSV, dataset
+    /// description) or the unfinished one (torn last line cut, a `resumed`
+    /// line appended).
+    ///
+    /// # Errors
+    /// The log exists (a new session never overwrites), or any I/O error.
+    pub fn open(&self, dir: &ResultsDir) -> Result<OpenLog, ResultsError> {
+        match &self.opening {
+            Opening::Resume { read, files } => {
+                let (mut log, torn_bytes) = SessionLog::reopen(&files.log, read.valid_len)?;
+                log.append(&LogLine::Resumed {
+                    at_trial: self.start_at(),
+                    torn_bytes,
+                })?;
+                Ok(OpenLog {
+                    log,
+                    streams: StreamRecorder::new(dir, &read.header, self.streams),
+                    read: (**read).clone(),
+                    csv: files.csv.clone(),
+                    torn_bytes,
+                })
+            }
+            Opening::New { header, files } => {
+                let log = SessionLog::create(&files.log, (**header).clone())?;
+                let read = ReadLog {
+                    header: (**header).clone(),
+                    trials: Vec::new(),
+                    ended: false,
+                    valid_len: 0,
+                    torn_bytes: 0,
+                };
+                replace_file(&files.csv, data_csv(&read).as_bytes(), false)?;
+                write_dataset_description(dir, &kinds_present(dir))?;
+                Ok(OpenLog {
+                    log,
+                    streams: StreamRecorder::new(dir, &read.header, self.streams),
+                    read,
+                    csv: files.csv.clone(),
+                    torn_bytes: 0,
+                })
+            }
+        }
+    }
+}

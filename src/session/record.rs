@@ -1,0 +1,100 @@
+//! The write rule: a trial's stream, then its record (fsync'd), then the CSV
+//! made from the log, all before the next trial starts.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use super::open::OpenLog;
+use crate::device::DeviceSample;
+use crate::protocol::engine::TrialRecord;
+use crate::results::{Header, LogLine, ResultsDir, ResultsError, data_csv, replace_file};
+
+/// Records each trial's device stream at the loop rate and writes it, when
+/// the trial ends, to
+/// `streams/study-<P>_subject-<S>_session-<n>_trial-<k>_run-<r>_stream.csv`
+/// (`k` the planned trial index, `r` its presentation: 1, or more for a
+/// re-queued trial). Columns `t_s,x_m,v_m_s,force_n,vibration`: session
+/// time, device position and velocity, rendered force on the hand, and
+/// vibrotactile drive (SI units), readable by `frictionlab identify`.
+#[derive(Debug, Clone, Default)]
+pub struct StreamRecorder {
+    stem: Option<PathBuf>,
+    rows: Vec<[f64; 5]>,
+}
+
+impl StreamRecorder {
+    /// A recorder for the session of `header` (`on`: record at all).
+    #[must_use]
+    pub fn new(dir: &ResultsDir, header: &Header, on: bool) -> Self {
+        let files = dir.files(&header.protocol_id, &header.participant, header.session);
+        let stem = files
+            .csv
+            .file_name()
+            .map(|n| n.to_string_lossy().trim_end_matches("_data.csv").to_owned());
+        StreamRecorder {
+            stem: stem
+                .filter(|_| on)
+                .map(|s| dir.root().join("streams").join(s)),
+            rows: Vec::new(),
+        }
+    }
+
+    /// Adds a sample of the trial under way.
+    pub fn push(&mut self, t_s: f64, s: &DeviceSample) {
+        if self.stem.is_some() {
+            self.rows
+                .push([t_s, s.x_m, s.v_m_s, s.force_n, s.vibration]);
+        }
+    }
+
+    /// Writes the trial's stream (whole, fsync'd) and starts afresh.
+    fn write(&mut self, trial: usize, run: usize) -> Result<(), ResultsError> {
+        let rows = std::mem::take(&mut self.rows);
+        let Some(stem) = &self.stem else {
+            return Ok(());
+        };
+        let mut text = String::with_capacity(rows.len() * 64 + 40);
+        text.push_str("t_s,x_m,v_m_s,force_n,vibration\n");
+        for r in &rows {
+            let _ = writeln!(text, "{},{},{},{},{}", r[0], r[1], r[2], r[3], r[4]);
+        }
+        let path = PathBuf::from(format!(
+            "{}_trial-{trial}_run-{run}_stream.csv",
+            stem.display()
+        ));
+        replace_file(&path, text.as_bytes(), true)
+    }
+}
+
+impl OpenLog {
+    /// Puts a trial record on disk: its device stream (if recorded), then
+    /// the record appended to the log and fsync'd, then the CSV rewritten
+    /// from the log. Only after this may the next trial start.
+    ///
+    /// # Errors
+    /// I/O.
+    pub fn write_record(&mut self, record: &TrialRecord) -> Result<(), ResultsError> {
+        let run = 1 + self
+            .read
+            .trials
+            .iter()
+            .filter(|r| r.trial == record.trial)
+            .count();
+        self.streams.write(record.trial, run)?;
+        self.log.append(&LogLine::Trial(record.clone()))?;
+        self.read.trials.push(record.clone());
+        replace_file(&self.csv, data_csv(&self.read).as_bytes(), false)
+    }
+
+    /// Ends the log after the last trial: the `end` line with the counts of
+    /// completed and aborted trials, which it returns.
+    ///
+    /// # Errors
+    /// I/O.
+    pub fn write_end(&mut self) -> Result<(usize, usize), ResultsError> {
+        let completed = self.read.completed();
+        let aborted = self.read.trials.len() - completed;
+        self.log.append(&LogLine::End { completed, aborted })?;
+        Ok((completed, aborted))
+    }
+}
