@@ -35,12 +35,13 @@
 //! completion time runs from the first hit to the last.
 
 use std::collections::VecDeque;
+use std::sync::Arc;
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::Design;
 use super::plan::{Plan, PlannedTrial, TrialSpec};
+use super::{Design, Protocol};
 use crate::friction::ModelParams;
 
 /// A paired-comparison answer.
@@ -360,44 +361,147 @@ struct FittsTest {
     miss_size: Vec<f64>,
 }
 
+/// Where a session's trials come from: the trial at each presentation
+/// position, given every record logged so far. A fixed [`Plan`] ignores the
+/// records; an adaptive source (a staircase) chooses its next stimulus from
+/// the answers. A source is a pure function of its arguments: it keeps no
+/// state of its own, so a resumed session rebuilds it exactly by handing it
+/// the logged records.
+pub trait TrialSource: std::fmt::Debug + Send + Sync {
+    /// The trial to present at position `index` (0-based), given the
+    /// session's records so far in log order (re-queued ones included);
+    /// `None` when the session is over.
+    fn trial(&self, index: usize, history: &[TrialRecord]) -> Option<PlannedTrial>;
+    /// How many trials the session will have, if known in advance.
+    fn planned(&self) -> Option<usize>;
+    /// The haptic loop rate the session's models need, Hz.
+    fn loop_rate_hz(&self) -> f64;
+}
+
+impl TrialSource for Plan {
+    fn trial(&self, index: usize, _: &[TrialRecord]) -> Option<PlannedTrial> {
+        self.trials.get(index).cloned()
+    }
+
+    fn planned(&self) -> Option<usize> {
+        Some(self.trials.len())
+    }
+
+    /// The highest loop rate of any model the plan renders (5 kHz for seed
+    /// 001's stick-slip models, else 1 kHz).
+    fn loop_rate_hz(&self) -> f64 {
+        self.trials
+            .iter()
+            .map(|t| match &t.spec {
+                TrialSpec::MagnitudeEstimation { model, .. } | TrialSpec::Fitts { model, .. } => {
+                    model.loop_rate_hz()
+                }
+                TrialSpec::PairedComparison { first, second, .. } => {
+                    first.model.loop_rate_hz().max(second.model.loop_rate_hz())
+                }
+            })
+            .fold(1000.0, f64::max)
+    }
+}
+
+/// The first position not yet finally logged: where a resume starts. A
+/// trial is final when completed, or aborted and not re-queued.
+#[must_use]
+pub fn next_position(history: &[TrialRecord]) -> usize {
+    history
+        .iter()
+        .filter(|r| !r.requeued)
+        .map(|r| r.trial + 1)
+        .max()
+        .unwrap_or(0)
+}
+
 /// The session engine.
 #[derive(Debug, Clone)]
 pub struct Engine {
-    plan: Plan,
+    protocol: Protocol,
+    source: Arc<dyn TrialSource>,
+    history: Vec<TrialRecord>,
     next: usize,
+    current: Option<PlannedTrial>,
+    /// Block of the last trial finally logged (a break comes before the
+    /// first trial of another block).
+    previous_block: Option<usize>,
     stage: Stage,
     out: VecDeque<Action>,
 }
 
 impl Engine {
     /// An engine that will run `plan` from trial `start_at` (0 for a new
-    /// session, the first unlogged trial when resuming).
+    /// session).
     #[must_use]
     pub fn new(plan: Plan, start_at: usize) -> Self {
+        let previous_block = start_at
+            .checked_sub(1)
+            .and_then(|i| plan.trials.get(i))
+            .map(|t| t.block_index);
+        let mut e = Engine::resume(plan.protocol.clone(), Arc::new(plan), Vec::new());
+        e.next = start_at;
+        e.previous_block = previous_block;
+        e.current = e.source.trial(start_at, &e.history);
+        e
+    }
+
+    /// An engine that runs `protocol` with trials from `source`, going on
+    /// after the records of `history` (empty for a new session).
+    #[must_use]
+    pub fn resume(
+        protocol: Protocol,
+        source: Arc<dyn TrialSource>,
+        history: Vec<TrialRecord>,
+    ) -> Self {
+        let next = next_position(&history);
+        let previous_block = history
+            .iter()
+            .rev()
+            .find(|r| !r.requeued)
+            .map(|r| r.block_index);
+        let current = source.trial(next, &history);
         Engine {
-            plan,
-            next: start_at,
+            protocol,
+            source,
+            history,
+            next,
+            current,
+            previous_block,
             stage: Stage::Idle,
             out: VecDeque::new(),
         }
     }
 
-    /// The plan.
+    /// The protocol.
     #[must_use]
-    pub fn plan(&self) -> &Plan {
-        &self.plan
+    pub fn protocol(&self) -> &Protocol {
+        &self.protocol
     }
 
-    /// Index of the current (or next) trial.
+    /// How many trials the session has, if known in advance.
+    #[must_use]
+    pub fn planned_trials(&self) -> Option<usize> {
+        self.source.planned()
+    }
+
+    /// Every record of the session so far, in log order.
+    #[must_use]
+    pub fn history(&self) -> &[TrialRecord] {
+        &self.history
+    }
+
+    /// Position of the current (or next) trial.
     #[must_use]
     pub fn trial_index(&self) -> usize {
         self.next
     }
 
-    /// The current (or next) planned trial, if any is left.
+    /// The current (or next) trial, if any is left.
     #[must_use]
     pub fn trial(&self) -> Option<&PlannedTrial> {
-        self.plan.trials.get(self.next)
+        self.current.as_ref()
     }
 
     /// Whether a trial is being presented (stimulus on, answer or taps
@@ -431,8 +535,10 @@ impl Engine {
             (Stage::Trial(live), input) => self.live(now_s, live, input),
             (Stage::AwaitWrite { requeue }, Input::Recorded) => {
                 if !requeue {
+                    self.previous_block = self.current.as_ref().map(|t| t.block_index);
                     self.next += 1;
                 }
+                self.current = self.source.trial(self.next, &self.history);
                 self.begin_trial(now_s, false)
             }
             (stage, _) => stage,
@@ -486,9 +592,9 @@ impl Engine {
     }
 
     fn start(&mut self, now: f64) -> Stage {
-        if self.next == 0 && !self.plan.protocol.instructions.is_empty() {
+        if self.next == 0 && !self.protocol.instructions.is_empty() {
             self.out.push_back(Action::Show(Screen::Instructions(
-                self.plan.protocol.instructions.clone(),
+                self.protocol.instructions.clone(),
             )));
             return Stage::Instructions;
         }
@@ -496,7 +602,7 @@ impl Engine {
     }
 
     fn after_instructions(&mut self, now: f64) -> Stage {
-        if let Design::PairedComparison(d) = &self.plan.protocol.design
+        if let Design::PairedComparison(d) = &self.protocol.design
             && self.next == 0
             && d.reference_s > 0.0
         {
@@ -513,15 +619,14 @@ impl Engine {
     /// Starts the next trial, with a break first at a block boundary (unless
     /// `break_done`).
     fn begin_trial(&mut self, now: f64, break_done: bool) -> Stage {
-        let Some(trial) = self.plan.trials.get(self.next) else {
+        let Some(trial) = &self.current else {
             self.out.push_back(Action::Render(None));
             self.out.push_back(Action::Finished);
             return Stage::Finished;
         };
-        let block_start =
-            self.next > 0 && self.plan.trials[self.next - 1].block_index != trial.block_index;
-        if block_start && !break_done && self.plan.protocol.break_s > 0.0 {
-            let until = now + self.plan.protocol.break_s;
+        let block_start = self.previous_block.is_some_and(|b| b != trial.block_index);
+        if block_start && !break_done && self.protocol.break_s > 0.0 {
+            let until = now + self.protocol.break_s;
             self.out.push_back(Action::Render(None));
             self.out
                 .push_back(Action::Show(Screen::Break { until_s: until }));
@@ -538,7 +643,7 @@ impl Engine {
     }
 
     fn start_live(&mut self, now: f64) -> Stage {
-        let Some(trial) = self.plan.trials.get(self.next) else {
+        let Some(trial) = &self.current else {
             return Stage::Finished;
         };
         let state = match &trial.spec {
@@ -696,7 +801,7 @@ impl Engine {
         reply: Option<Reply>,
         requeue: bool,
     ) -> Stage {
-        let Some(trial) = self.plan.trials.get(self.next) else {
+        let Some(trial) = &self.current else {
             return Stage::Finished;
         };
         let status = if abort.is_some() {
@@ -719,6 +824,7 @@ impl Engine {
             ended_s: now,
             data,
         };
+        self.history.push(record.clone());
         self.out.push_back(Action::Render(None));
         self.out.push_back(Action::Physical(None));
         self.out.push_back(Action::Record(record));

@@ -9,7 +9,6 @@ use crate::device::link::LinkState;
 use crate::device::sim::SimDevice;
 use crate::friction::ModelParams;
 use crate::hand::HandDrive;
-use crate::protocol::plan::{Plan, TrialSpec};
 
 /// How often the hand drive is sent to an emulated device, s.
 pub const HAND_EVERY_S: f64 = 0.005;
@@ -33,23 +32,6 @@ pub struct DeviceStatus {
     pub force_n: f64,
     /// Device position, m.
     pub x_m: f64,
-}
-
-/// The haptic loop rate a plan needs: the highest loop rate of any model it
-/// renders (5 kHz for seed 001's stick-slip models, else 1 kHz).
-#[must_use]
-pub fn loop_rate_hz(plan: &Plan) -> f64 {
-    plan.trials
-        .iter()
-        .map(|t| match &t.spec {
-            TrialSpec::MagnitudeEstimation { model, .. } | TrialSpec::Fitts { model, .. } => {
-                model.loop_rate_hz()
-            }
-            TrialSpec::PairedComparison { first, second, .. } => {
-                first.model.loop_rate_hz().max(second.model.loop_rate_hz())
-            }
-        })
-        .fold(1000.0, f64::max)
 }
 
 /// A haptic loop on a serial port, with what the session tracks of it.

@@ -69,7 +69,8 @@ fn report<R: Responder>(
     if records != *seen {
         *seen = records;
         if let Some(trial) = last {
-            progress(trial + 1, session.engine().plan().trials.len());
+            let total = session.engine().planned_trials().unwrap_or(trial + 1);
+            progress(trial + 1, total);
         }
     }
 }
@@ -85,9 +86,27 @@ pub fn run_simulated(
     req: &SessionRequest<'_>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<SessionOutcome, SessionError> {
-    let mut session = Session::begin(dir, req, sim_participant)?;
+    let planned = super::plan(dir, req, <SimParticipant as Responder>::LABEL)?;
+    run_planned(dir, planned, req.pace, sim_participant, progress)
+}
+
+/// Runs a planned session ([`super::plan`], perhaps with another trial
+/// source) on the simulated device with `responder` made from its header,
+/// in virtual time paced by `pace` (`None`: as fast as possible).
+///
+/// # Errors
+/// I/O on the results.
+pub fn run_planned<R: Responder>(
+    dir: &ResultsDir,
+    planned: super::Planned,
+    pace: Option<f64>,
+    responder: impl FnOnce(&Header) -> R,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<SessionOutcome, SessionError> {
+    let mut session =
+        Session::from_planned(dir, planned, &super::DeviceChoice::Simulated, responder)?;
     let pacer = Pacer {
-        pace: req.pace,
+        pace,
         wall: Instant::now(),
         virtual_start: session.now_s(),
     };

@@ -58,10 +58,10 @@ pub mod view;
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 
-pub use device::{DeviceStatus, HAND_EVERY_S, loop_rate_hz, percentile};
+pub use device::{DeviceStatus, HAND_EVERY_S, percentile};
 pub use headless::{
-    SessionOutcome, Simulation, participant_seed, run_device, run_simulated, sim_participant,
-    simulate_participants,
+    SessionOutcome, Simulation, participant_seed, run_device, run_planned, run_simulated,
+    sim_participant, simulate_participants,
 };
 pub use open::{DeviceChoice, OpenLog, Planned, SessionRequest, plan};
 pub use record::StreamRecorder;
@@ -227,17 +227,32 @@ impl<R: Responder> Session<R> {
         responder: impl FnOnce(&Header) -> R,
     ) -> Result<Self, SessionError> {
         let planned = open::plan(dir, req, R::LABEL)?;
+        Session::from_planned(dir, planned, req.device, responder)
+    }
+
+    /// Starts a session already planned ([`open::plan`], perhaps with
+    /// another trial source) on `device`.
+    ///
+    /// # Errors
+    /// As [`Session::begin`].
+    pub fn from_planned(
+        dir: &ResultsDir,
+        planned: Planned,
+        device: &DeviceChoice,
+        responder: impl FnOnce(&Header) -> R,
+    ) -> Result<Self, SessionError> {
         let responder = responder(planned.header());
-        let (start_at, start_t) = (planned.start_at(), planned.start_time());
-        let resumed_at = planned.resumes().then_some(start_at);
-        let engine = Engine::new(planned.plan.clone(), start_at);
-        let rate_hz = loop_rate_hz(&planned.plan);
+        let start_t = planned.start_time();
+        let resumed_at = planned.resumes_at();
+        let engine = planned.engine();
+        let rate_hz = planned.source.loop_rate_hz();
         let mut log = Log::Planned {
             planned: Box::new(planned),
             dir: dir.clone(),
             notes: Vec::new(),
         };
-        let device = match req.device {
+        let device_label = device.label();
+        let device = match device {
             DeviceChoice::Simulated => {
                 log.open()?;
                 Device::Sim {
@@ -258,7 +273,7 @@ impl<R: Responder> Session<R> {
             engine,
             log,
             device,
-            device_label: req.device.label(),
+            device_label,
             responder,
             sample: DeviceSample::default(),
             t: start_t,
@@ -704,8 +719,8 @@ impl<R: Responder> Session<R> {
     /// Progress.
     #[must_use]
     pub fn progress(&self) -> Progress {
-        let total = self.engine.plan().trials.len();
         let index = self.engine.trial_index();
+        let total = self.engine.planned_trials().unwrap_or(index);
         let left = total.saturating_sub(index);
         let remaining_s = (self.done_this_run > 0)
             .then(|| (self.t - self.start_t) / count_f64(self.done_this_run) * count_f64(left));

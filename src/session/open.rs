@@ -6,11 +6,13 @@
 //! session behind.
 
 use std::path::PathBuf;
+use std::sync::Arc;
 
 use super::SessionError;
 use super::record::StreamRecorder;
 use crate::protocol::Protocol;
-use crate::protocol::plan::{Plan, resolve};
+use crate::protocol::engine::{Engine, TrialSource};
+use crate::protocol::plan::resolve;
 use crate::results::{
     Header, LOG_FORMAT, LogLine, ReadLog, ResultsDir, ResultsError, SessionFiles, SessionLog,
     data_csv, kinds_present, read_log, replace_file, sha256_hex, write_dataset_description,
@@ -63,8 +65,9 @@ pub struct SessionRequest<'a> {
 /// A session checked and planned; nothing written yet.
 #[derive(Debug)]
 pub struct Planned {
-    /// The session's plan.
-    pub plan: Plan,
+    /// Where the session's trials come from: the protocol's plan, drawn
+    /// from the plan seed and participant index.
+    pub source: Arc<dyn TrialSource>,
     opening: Opening,
     streams: bool,
 }
@@ -128,7 +131,7 @@ pub fn plan(
         }
         let h = &read.header;
         return Ok(Planned {
-            plan: resolve(&h.protocol, h.plan_seed, h.participant_index),
+            source: Arc::new(resolve(&h.protocol, h.plan_seed, h.participant_index)),
             opening: Opening::Resume {
                 read: Box::new(read),
                 files: last,
@@ -157,7 +160,7 @@ pub fn plan(
         planned_trials: plan.trials.len(),
     };
     Ok(Planned {
-        plan,
+        source: Arc::new(plan),
         opening: Opening::New {
             header: Box::new(header),
             files,
@@ -167,6 +170,28 @@ pub fn plan(
 }
 
 impl Planned {
+    /// Takes the trials from `source` instead of the protocol's plan (a
+    /// new session logs its planned count; a resumed one rebuilds the
+    /// source's state from its logged records).
+    #[must_use]
+    pub fn with_source(mut self, source: Arc<dyn TrialSource>) -> Self {
+        if let Opening::New { header, .. } = &mut self.opening {
+            header.planned_trials = source.planned().unwrap_or(0);
+        }
+        self.source = source;
+        self
+    }
+
+    /// The engine that runs the session from where it stands.
+    #[must_use]
+    pub fn engine(&self) -> Engine {
+        let history = match &self.opening {
+            Opening::Resume { read, .. } => read.trials.clone(),
+            Opening::New { .. } => Vec::new(),
+        };
+        Engine::resume(self.header().protocol.clone(), self.source.clone(), history)
+    }
+
     /// The session's header (a new one's, or the resumed one's).
     #[must_use]
     pub fn header(&self) -> &Header {
@@ -194,19 +219,13 @@ impl Planned {
         }
     }
 
-    /// The first trial this run presents.
+    /// The first trial this run presents, when it resumes a session.
     #[must_use]
-    pub fn start_at(&self) -> usize {
+    pub fn resumes_at(&self) -> Option<usize> {
         match &self.opening {
-            Opening::Resume { read, .. } => read.next_trial(),
-            Opening::New { .. } => 0,
+            Opening::Resume { read, .. } => Some(read.next_trial()),
+            Opening::New { .. } => None,
         }
-    }
-
-    /// Whether this run resumes an unfinished session.
-    #[must_use]
-    pub fn resumes(&self) -> bool {
-        matches!(self.opening, Opening::Resume { .. })
     }
 
     /// Opens the session's log: a new session (header, empty CSV, dataset
@@ -220,7 +239,7 @@ impl Planned {
             Opening::Resume { read, files } => {
                 let (mut log, torn_bytes) = SessionLog::reopen(&files.log, read.valid_len)?;
                 log.append(&LogLine::Resumed {
-                    at_trial: self.start_at(),
+                    at_trial: read.next_trial(),
                     torn_bytes,
                 })?;
                 Ok(OpenLog {
