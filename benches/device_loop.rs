@@ -18,7 +18,6 @@ use frictionlab::device::haptic::HapticLoop;
 use frictionlab::device::link::{Link, LinkState};
 use frictionlab::device::transport::Transport;
 use frictionlab::device::wire::{Message, frame};
-use frictionlab::friction::ForceLimit;
 
 fn emulator(path: &Path) -> Option<Child> {
     let child = Command::new(env!("CARGO_BIN_EXE_frictionlab"))
@@ -46,7 +45,14 @@ fn loop_timing() {
         (5000.0, false),
         (5000.0, true),
     ] {
-        let Ok(haptic) = HapticLoop::start(path.clone(), rate, fifo, ForceLimit::default()) else {
+        let Ok(haptic) = HapticLoop::start(
+            path.clone(),
+            frictionlab::friction::StepParams {
+                rate_hz: rate,
+                ..Default::default()
+            },
+            fifo,
+        ) else {
             continue;
         };
         std::thread::sleep(Duration::from_secs(10));

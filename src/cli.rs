@@ -11,7 +11,7 @@ use crate::friction::{ForceLimit, ModelParams, ParamError};
 use crate::protocol::{Protocol, load};
 use crate::render;
 use crate::results::{self, ResultsError};
-use crate::scenario::{self, RunSettings, ScenarioError, ScenarioParams};
+use crate::scenario::{self, ScenarioError, ScenarioParams};
 use crate::session::{self, DeviceChoice, SessionError};
 use crate::settings::{self, SetError};
 
@@ -804,7 +804,7 @@ fn models_json() -> String {
 struct RenderPlan {
     model: ModelParams,
     scenario: ScenarioParams,
-    settings: RunSettings,
+    settings: crate::friction::StepParams,
 }
 
 fn render_command(args: &RenderArgs) -> Result<(), Failure> {
@@ -949,7 +949,11 @@ fn render_plan(model: &str, scenario: &str, sets: &[String]) -> Result<RenderPla
             Ok(RenderPlan {
                 model,
                 scenario,
-                settings: RunSettings { rate_hz, limit },
+                settings: crate::friction::StepParams {
+                    rate_hz,
+                    force_limit: limit,
+                    ..Default::default()
+                },
             })
         }
         _ => Err(errors),

@@ -29,7 +29,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::friction::{
-    ForceLimit, Friction, Input, ModelParams, Output, ParamError, Phase, collect, non_negative,
+    Friction, Input, ModelParams, Output, ParamError, Phase, StepParams, collect, non_negative,
     positive,
 };
 
@@ -231,15 +231,6 @@ impl ScenarioParams {
     }
 }
 
-/// How a scenario is stepped.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RunSettings {
-    /// Step rate, Hz.
-    pub rate_hz: f64,
-    /// Force limit of the rendering device.
-    pub limit: ForceLimit,
-}
-
 /// The longest run a scenario may ask for, in steps (10 minutes at 5 kHz).
 pub const MAX_STEPS: u64 = 3_000_000;
 
@@ -305,7 +296,7 @@ pub enum ScenarioError {
 pub fn run(
     model: &ModelParams,
     scenario: &ScenarioParams,
-    settings: RunSettings,
+    settings: StepParams,
 ) -> Result<Vec<Sample>, ScenarioError> {
     if let Some(e) = scenario.validate().into_iter().next() {
         return Err(ScenarioError::Scenario(e));
@@ -313,7 +304,7 @@ pub fn run(
     if !(settings.rate_hz.is_finite() && settings.rate_hz > 0.0) {
         return Err(ScenarioError::Rate(settings.rate_hz));
     }
-    let mut friction = Friction::new(model, settings.limit, 0.0)
+    let mut friction = Friction::new(model, settings.force_limit, 0.0)
         .map_err(|mut e| ScenarioError::Model(e.swap_remove(0)))?;
     let dt = 1.0 / settings.rate_hz;
     match scenario {

@@ -54,7 +54,7 @@ impl EmulatorCore {
         let p = Apparatus::default();
         EmulatorCore {
             p,
-            device: SimDevice::new(p, HAND_MASS_KG),
+            device: SimDevice::new(p, HAND_MASS_KG, crate::friction::StepParams::default()),
             now_s: 0.0,
             force_n: 0.0,
             clamped: false,

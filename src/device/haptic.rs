@@ -26,7 +26,7 @@ use std::time::{Duration, Instant};
 use super::link::{Link, LinkState};
 use super::transport::Transport;
 use super::wire::{MAX_FRAME, Message, encode};
-use crate::friction::{ForceLimit, Friction, Input, ModelParams};
+use crate::friction::{Friction, Input, ModelParams, StepParams};
 
 /// Crossfade time between models, s.
 pub const RAMP_S: f64 = 0.050;
@@ -109,17 +109,12 @@ impl std::fmt::Debug for HapticLoop {
 const BINS: usize = 20_000;
 
 impl HapticLoop {
-    /// Starts the loop on the device at `path` at `rate_hz`, asking for
-    /// SCHED_FIFO when `fifo`, with output limited to `limit`.
+    /// Starts the loop on the device at `path`, stepped by `step` (rate,
+    /// force limit, velocity filter), asking for SCHED_FIFO when `fifo`.
     ///
     /// # Errors
     /// The thread could not be spawned.
-    pub fn start(
-        path: PathBuf,
-        rate_hz: f64,
-        fifo: bool,
-        limit: ForceLimit,
-    ) -> std::io::Result<Self> {
+    pub fn start(path: PathBuf, step: StepParams, fifo: bool) -> std::io::Result<Self> {
         let (to_loop, mut inbox) = rtrb::RingBuffer::<ToLoop>::new(256);
         let (mut outbox, from_loop) = rtrb::RingBuffer::<Tick>::new(16_384);
         let stop = Arc::new(AtomicBool::new(false));
@@ -136,15 +131,7 @@ impl HapticLoop {
                         ),
                     )
                     .is_ok();
-                run(
-                    &path,
-                    rate_hz,
-                    limit,
-                    &flag,
-                    &mut inbox,
-                    &mut outbox,
-                    sched_fifo,
-                )
+                run(&path, step, &flag, &mut inbox, &mut outbox, sched_fifo)
             })?;
         Ok(HapticLoop {
             to_loop,
@@ -191,8 +178,7 @@ impl Drop for HapticLoop {
 )]
 fn run(
     path: &std::path::Path,
-    rate_hz: f64,
-    limit: ForceLimit,
+    step: StepParams,
     stop: &AtomicBool,
     inbox: &mut rtrb::Consumer<ToLoop>,
     outbox: &mut rtrb::Producer<Tick>,
@@ -200,9 +186,10 @@ fn run(
 ) -> LoopStats {
     let mut transport = Transport::new(path);
     let mut link = Link::new();
-    let period = Duration::from_secs_f64(1.0 / rate_hz);
+    let (rate_hz, limit) = (step.rate_hz, step.force_limit);
+    let period = Duration::from_secs_f64(step.dt());
     let dt = period.as_secs_f64();
-    let alpha = (-std::f64::consts::TAU * 100.0 * dt).exp();
+    let alpha = step.velocity_alpha(dt);
     let mut histogram = vec![0_u32; BINS + 1];
     let (mut ticks, mut missed, mut max_late) = (0_u64, 0_u64, 0.0_f64);
     let (mut current, mut previous): (Option<Friction>, Option<Friction>) = (None, None);

@@ -20,7 +20,7 @@
 //!
 //! No clock, no I/O: time is the `dt` argument.
 
-use crate::friction::{ForceLimit, Friction, Input, ModelParams};
+use crate::friction::{ForceLimit, Friction, Input, ModelParams, StepParams};
 
 use super::DeviceSample;
 
@@ -37,8 +37,6 @@ pub struct Apparatus {
     pub range_m: f64,
     /// Encoder resolution, m. 2.57e-6.
     pub encoder_m: f64,
-    /// Velocity estimate low-pass cutoff, Hz. 100.
-    pub velocity_cutoff_hz: f64,
     /// End-stop stiffness, N/m. 2e4.
     pub stop_stiffness_n_m: f64,
     /// End-stop damping, N s/m. 50.
@@ -53,7 +51,6 @@ impl Default for Apparatus {
             max_force_n: 9.48,
             range_m: 0.032,
             encoder_m: 2.57e-6,
-            velocity_cutoff_hz: 100.0,
             stop_stiffness_n_m: 2e4,
             stop_damping_n_s_m: 50.0,
         }
@@ -65,7 +62,7 @@ impl Default for Apparatus {
 pub struct SimDevice {
     p: Apparatus,
     mass_kg: f64,
-    limit: ForceLimit,
+    step: StepParams,
     x: f64,
     v: f64,
     stuck: bool,
@@ -80,13 +77,20 @@ pub struct SimDevice {
 }
 
 impl SimDevice {
-    /// The apparatus at rest at 0 with a hand of `hand_mass_kg` on it.
+    /// The apparatus at rest at 0 with a hand of `hand_mass_kg` on it,
+    /// rendering within `step`'s force limit (at most the apparatus's
+    /// maximum continuous force) and estimating velocity with its filter.
+    /// The rate is each step's `dt`.
     #[must_use]
-    pub fn new(p: Apparatus, hand_mass_kg: f64) -> Self {
+    pub fn new(p: Apparatus, hand_mass_kg: f64, step: StepParams) -> Self {
+        let limit = step.force_limit.newtons().min(p.max_force_n);
         SimDevice {
             p,
             mass_kg: p.mass_kg + hand_mass_kg.max(0.0),
-            limit: ForceLimit::new(p.max_force_n).unwrap_or_default(),
+            step: StepParams {
+                force_limit: ForceLimit::new(limit).unwrap_or_default(),
+                ..step
+            },
             x: 0.0,
             v: 0.0,
             stuck: true,
@@ -115,7 +119,8 @@ impl SimDevice {
     /// nothing (protocols are checked before they reach a device).
     pub fn set_model(&mut self, model: Option<&ModelParams>) {
         self.rendered_params = model.cloned();
-        self.rendered = model.and_then(|m| Friction::new(m, self.limit, self.x_measured).ok());
+        self.rendered =
+            model.and_then(|m| Friction::new(m, self.step.force_limit, self.x_measured).ok());
     }
 
     /// The physical friction of a condition from now on (`None`: none).
@@ -175,10 +180,7 @@ impl SimDevice {
         let measured = self.quantize(self.x);
         let raw_v = (measured - self.x_measured) / dt;
         if self.filter.0 != dt {
-            self.filter = (
-                dt,
-                (-std::f64::consts::TAU * self.p.velocity_cutoff_hz * dt).exp(),
-            );
+            self.filter = (dt, self.step.velocity_alpha(dt));
         }
         let alpha = self.filter.1;
         self.v_estimate = alpha * self.v_estimate + (1.0 - alpha) * raw_v;

@@ -140,6 +140,48 @@ impl Default for ForceLimit {
     }
 }
 
+/// How a model is stepped on a device: one value for the simulated device,
+/// the haptic loop, the emulator and the scripted scenarios (in the spirit
+/// of rapier's `IntegrationParameters`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepParams {
+    /// Loop rate, Hz; greater than 0. Default 1000 (seed 002's servo rate);
+    /// [`ModelParams::loop_rate_hz`] gives the rate a model needs.
+    pub rate_hz: f64,
+    /// Largest force the device outputs. Default [`DEFAULT_FORCE_LIMIT_N`]
+    /// (seed 002's maximum continuous force).
+    pub force_limit: ForceLimit,
+    /// Cutoff of the velocity estimate, Hz: a first-order low-pass of the
+    /// measured position's difference quotient, as a host estimates
+    /// velocity from an encoder. Greater than 0. Default 100.
+    pub velocity_cutoff_hz: f64,
+}
+
+impl Default for StepParams {
+    fn default() -> Self {
+        StepParams {
+            rate_hz: 1000.0,
+            force_limit: ForceLimit::default(),
+            velocity_cutoff_hz: 100.0,
+        }
+    }
+}
+
+impl StepParams {
+    /// The step, s.
+    #[must_use]
+    pub fn dt(&self) -> f64 {
+        1.0 / self.rate_hz
+    }
+
+    /// The velocity filter's coefficient for a step of `dt` s:
+    /// `exp(-2 pi f_c dt)` (the weight kept of the previous estimate).
+    #[must_use]
+    pub fn velocity_alpha(&self, dt: f64) -> f64 {
+        (-std::f64::consts::TAU * self.velocity_cutoff_hz * dt).exp()
+    }
+}
+
 /// An invalid model parameter: which one, and why.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{field}: {message}")]

@@ -6,11 +6,16 @@
 //! 2. [`plan`]: the checked protocol is resolved into a [`plan::Plan`]
 //!    holding every trial in presentation order, drawn from the seed before
 //!    the first trial starts.
-//! 3. [`engine`]: a sans-IO state machine that runs a plan: inputs (time,
-//!    clicks, answers, experimenter commands) in, actions (render this model,
-//!    show or ask this, write this record, wake me at) out.
+//! 3. [`engine`]: a sans-IO state machine that runs a session's trials
+//!    (from a [`engine::TrialSource`]: the plan, or a source that adapts to
+//!    the answers): inputs (time, clicks, answers, experimenter commands)
+//!    in, actions (render this model, show or ask this, write this record)
+//!    out, and the time it next wants to be woken.
 //!
-//! Nothing here reads a clock or touches a file or port.
+//! Nothing here reads a clock, draws unseeded randomness, or touches a port.
+//! One function touches a file: [`load::read`], the shells' way to read a
+//! protocol file (it reads it, and nothing else); [`load::parse`] is the
+//! same check on text.
 //!
 //! # Units
 //! SI throughout: seconds, metres, newtons. Friction conditions are the model

@@ -75,7 +75,7 @@ use crate::device::DeviceSample;
 use crate::device::haptic::HapticLoop;
 use crate::device::link::LinkState;
 use crate::device::sim::{Apparatus, SimDevice};
-use crate::friction::ForceLimit;
+use crate::friction::StepParams;
 use crate::protocol::engine::{Action, Engine, Input};
 use crate::results::{Header, LogLine, ResultsDir, ResultsError};
 use device::{Device, Port, count_f64};
@@ -259,13 +259,18 @@ impl<R: Responder> Session<R> {
                     device: Box::new(SimDevice::new(
                         Apparatus::default(),
                         responder.hand_mass_kg(),
+                        StepParams::default(),
                     )),
                     dt: 1e-3,
                 }
             }
             DeviceChoice::Port(path) => {
-                let haptic = HapticLoop::start(path.clone(), rate_hz, true, ForceLimit::default())
-                    .map_err(SessionError::Loop)?;
+                let step = StepParams {
+                    rate_hz,
+                    ..StepParams::default()
+                };
+                let haptic =
+                    HapticLoop::start(path.clone(), step, true).map_err(SessionError::Loop)?;
                 Device::Port(Box::new(Port::new(haptic, rate_hz)))
             }
         };

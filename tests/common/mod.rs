@@ -8,7 +8,7 @@
 #![allow(dead_code, reason = "each test binary uses a different subset")]
 
 use frictionlab::friction::{ForceLimit, Friction, Input, ModelParams, Output};
-use frictionlab::scenario::{self, RunSettings, Sample, ScenarioParams};
+use frictionlab::scenario::{self, Sample, ScenarioParams};
 use frictionlab::settings;
 
 /// Default parameters of `model` with `overrides` applied.
@@ -20,9 +20,9 @@ pub fn model(name: &str, overrides: &[(&str, &str)]) -> ModelParams {
 /// Runs `model` through the default `scenario` at the model's loop rate.
 pub fn render(model: &ModelParams, scenario: &str) -> Vec<Sample> {
     let scenario = ScenarioParams::default_for(scenario).expect("known scenario");
-    let settings = RunSettings {
+    let settings = frictionlab::friction::StepParams {
         rate_hz: model.loop_rate_hz(),
-        limit: ForceLimit::default(),
+        ..Default::default()
     };
     scenario::run(model, &scenario, settings).expect("scenario runs")
 }
