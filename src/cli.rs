@@ -99,9 +99,13 @@ enum Command {
     /// Lists serial ports.
     Ports,
     /// Runs an emulated device (the simulated apparatus) on a serial port,
-    /// or on a new pseudo-terminal linked at PATH if PATH does not exist.
+    /// or on a new pseudo-terminal linked at PATH if nothing is there (a
+    /// link an earlier emulator left, to a pseudo-terminal now gone, is
+    /// replaced). It stays silent until a host says Hello, and serves host
+    /// after host until stopped.
     DeviceEmulator {
-        /// A serial port, or where to link a new pseudo-terminal.
+        /// A serial port (or a link to one, left in place), or where to link
+        /// a new pseudo-terminal.
         path: PathBuf,
     },
     /// Prints a JSON Schema: of protocol files, or of session log lines.
@@ -558,37 +562,26 @@ fn ports_command() -> Result<(), Failure> {
 }
 
 fn emulator_command(path: &Path) -> Result<(), Failure> {
+    use crate::device::emulator::{self, Endpoint, OpenError};
     let place = path.display().to_string();
-    // A link left by an earlier emulator is replaced.
-    if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
-        std::fs::remove_file(path).map_err(|e| device_failure(&place, e.to_string()))?;
-    }
-    let result = if path.exists() {
-        let mut port = serialport::new(path.to_string_lossy(), crate::device::transport::BAUD)
-            .timeout(std::time::Duration::from_millis(1))
-            .open()
-            .map_err(|e| device_failure(&place, format!("cannot open: {e}")))?;
-        emit(&format!("device emulator on {}\n", path.display()))?;
-        crate::device::emulator::serve(&mut port, |_| {})
-    } else {
-        let (mut master, slave) = serialport::TTYPort::pair()
-            .map_err(|e| device_failure(&place, format!("cannot create a pseudo-terminal: {e}")))?;
-        let slave_name = serialport::SerialPort::name(&slave).unwrap_or_default();
-        std::os::unix::fs::symlink(&slave_name, path)
-            .map_err(|e| device_failure(&place, format!("cannot link: {e}")))?;
-        let _ =
-            serialport::SerialPort::set_timeout(&mut master, std::time::Duration::from_millis(1));
-        emit(&format!(
-            "device emulator on {} (pseudo-terminal {slave_name})\n",
-            path.display()
-        ))?;
-        // Keep the slave end open: a pseudo-terminal's master reads fail once
-        // every slave handle is closed.
-        let result = crate::device::emulator::serve(&mut master, |_| {});
-        drop(slave);
-        result
-    };
-    result.map_err(|e| device_failure(&place, e.to_string()))
+    let mut emulator = emulator::open(path).map_err(|e| match e {
+        OpenError::NotAPort(_) => Failure::from(vec![UserError::new(&place, e.to_string())]),
+        _ => device_failure(&place, e.to_string()),
+    })?;
+    emit(&match emulator.endpoint() {
+        Endpoint::Port => format!("device emulator on {place}\n"),
+        Endpoint::Pty { slave, replaced } => format!(
+            "device emulator on {place} (pseudo-terminal {}{})\n",
+            slave.display(),
+            replaced.as_ref().map_or_else(String::new, |old| format!(
+                "; replaced the link to {}, which was gone",
+                old.display()
+            ))
+        ),
+    })?;
+    emulator
+        .serve(|_| {})
+        .map_err(|e| device_failure(&place, e.to_string()))
 }
 
 /// This process's peak resident memory, MiB (Linux: `VmHWM`).

@@ -199,7 +199,7 @@ fn a_link_that_drops_bytes_and_flips_bits_keeps_working() {
             let heard = noise(&buf[..n]);
             let mut replies = Vec::new();
             decoder.feed(&heard, |m| replies.extend(core.receive(m)));
-            replies.push(core.tick(0.001));
+            replies.extend(core.tick(0.001));
             for m in replies {
                 let len = encode(&m, &mut out).unwrap();
                 let _ = master.write_all(&noise(&out[..len]));

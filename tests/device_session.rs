@@ -122,15 +122,8 @@ fn an_emulator_killed_mid_trial_and_restarted_costs_one_requeued_trial() {
             .collect::<Vec<_>>()
     );
     assert!(aborted[0].requeued && aborted[0].abort_reason.as_deref() == Some("device lost"));
-    let mut completed: Vec<usize> = log
-        .trials
-        .iter()
-        .filter(|r| r.status == Status::Completed)
-        .map(|r| r.trial)
-        .collect();
-    completed.sort_unstable();
     assert_eq!(
-        completed,
+        common::completed_trials(&log),
         (0..6).collect::<Vec<_>>(),
         "every planned trial completed once"
     );

@@ -6,10 +6,17 @@
 //! `Command`'s force, clamped to the device maximum. A watchdog zeroes the
 //! force when no valid command has arrived for 20 ms. Each tick it steps the
 //! simulated apparatus, with the hand `HandDrive` describes, and reports a
-//! `Sample`. [`serve`] is the shell: it runs the core on a serial port or
-//! pseudo-terminal at the force loop rate.
+//! `Sample` while a host is there: from the host's `Hello` until nothing
+//! has come from it for [`HOST_GONE_S`]. Before the first `Hello` and after
+//! a host has gone it sends nothing.
+//!
+//! The shell: [`open`] finds the port for a path (an existing port, or a new
+//! pseudo-terminal linked there) and [`Emulator::serve`] (or [`serve`] on
+//! any port) runs the core at the force loop rate, dropping any frame the
+//! port cannot take at once.
 
-use std::io::{Read, Write};
+use std::io::{ErrorKind, Read, Write};
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use super::sim::{Apparatus, SimDevice};
@@ -20,6 +27,10 @@ pub const FORCE_RATE_HZ: u16 = 1000;
 
 /// Watchdog: no valid command for this long zeroes the force, s.
 pub const WATCHDOG_S: f64 = 0.020;
+
+/// A host that has sent nothing for this long is gone: the emulator stops
+/// streaming until the next `Hello`, s.
+pub const HOST_GONE_S: f64 = 1.0;
 
 /// Hand mass on the emulated device, kg (as the simulated participant's).
 const HAND_MASS_KG: f64 = 0.4;
@@ -34,6 +45,9 @@ pub struct EmulatorCore {
     clamped: bool,
     ack_seq: u32,
     last_command_s: Option<f64>,
+    /// When the host last sent a valid frame, since its `Hello`; `None`
+    /// while no host is there.
+    host_heard_s: Option<f64>,
     hand: (f64, f64, f64, f64, f64),
     integral: f64,
     click: bool,
@@ -60,6 +74,7 @@ impl EmulatorCore {
             clamped: false,
             ack_seq: 0,
             last_command_s: None,
+            host_heard_s: None,
             hand: (0.0, 0.0, 0.0, 0.0, 0.0),
             integral: 0.0,
             click: false,
@@ -85,8 +100,19 @@ impl EmulatorCore {
         }
     }
 
+    /// Whether a host is there: it said `Hello` and has sent something
+    /// within [`HOST_GONE_S`]. Samples go out only then.
+    #[must_use]
+    pub fn has_host(&self) -> bool {
+        self.host_heard_s
+            .is_some_and(|t| self.now_s - t <= HOST_GONE_S)
+    }
+
     /// Handles one message from the host; returns the reply, if any.
     pub fn receive(&mut self, message: Message) -> Option<Message> {
+        if matches!(message, Message::Hello { .. }) || self.host_heard_s.is_some() {
+            self.host_heard_s = Some(self.now_s);
+        }
         match message {
             Message::Hello { .. } => {
                 self.force_n = 0.0;
@@ -135,8 +161,9 @@ impl EmulatorCore {
         }
     }
 
-    /// Advances the firmware by `dt`; returns this tick's sample.
-    pub fn tick(&mut self, dt: f64) -> Message {
+    /// Advances the firmware by `dt`; returns this tick's sample, or `None`
+    /// while no host is there ([`EmulatorCore::has_host`]).
+    pub fn tick(&mut self, dt: f64) -> Option<Message> {
         self.now_s += dt;
         let watchdog = self
             .last_command_s
@@ -153,6 +180,11 @@ impl EmulatorCore {
         let sample = self.device.step_commanded(dt, hand, force);
         self.x_m = sample.x_m;
         self.v_m_s = sample.v_m_s;
+        let button = std::mem::take(&mut self.click);
+        if !self.has_host() {
+            self.host_heard_s = None;
+            return None;
+        }
         let mut flags = 0;
         if watchdog && self.last_command_s.is_some() {
             flags |= status::WATCHDOG;
@@ -163,19 +195,18 @@ impl EmulatorCore {
         if self.device.at_end_stop() {
             flags |= status::END_STOP;
         }
-        let button = std::mem::take(&mut self.click);
         #[expect(
             clippy::cast_possible_truncation,
             reason = "counts fit i32 over the 3.2 cm range; time wraps by design"
         )]
         #[expect(clippy::cast_sign_loss, reason = "time is non-negative")]
-        Message::Sample {
+        Some(Message::Sample {
             ack_seq: self.ack_seq,
             time_us: ((self.now_s * 1e6) as u64 & 0xffff_ffff) as u32,
             position_counts: (sample.x_m / self.p.encoder_m).round() as i32,
             button,
             status: flags,
-        }
+        })
     }
 
     /// The force being rendered now (after the watchdog), N.
@@ -194,6 +225,11 @@ impl EmulatorCore {
 
 /// Runs the emulator on an open port until the port fails (or forever).
 ///
+/// Reads and writes never wait long: a read or write that times out or
+/// would block counts as nothing read, or as a frame dropped (a frame cut
+/// short by a full buffer is dropped by the host's decoder too). Only other
+/// errors end it.
+///
 /// # Errors
 /// An I/O error on the port.
 pub fn serve(
@@ -210,22 +246,18 @@ pub fn serve(
     loop {
         let n = match port.read(&mut input) {
             Ok(n) => n,
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
-                ) =>
-            {
-                0
-            }
+            Err(e) if is_busy(&e) => 0,
             Err(e) => return Err(e),
         };
         let mut replies = Vec::new();
         decoder.feed(&input[..n], |m| replies.extend(core.receive(m)));
-        replies.push(core.tick(dt));
+        replies.extend(core.tick(dt));
         for m in &replies {
             if let Ok(len) = encode(m, &mut out) {
-                port.write_all(&out[..len])?;
+                match port.write_all(&out[..len]) {
+                    Err(e) if !is_busy(&e) => return Err(e),
+                    _ => {} // Sent, or dropped: nobody is reading.
+                }
             }
         }
         on_tick(&core);
@@ -237,5 +269,254 @@ pub fn serve(
         if Instant::now() > next + period * 50 {
             next = Instant::now() + period; // Fell far behind: do not burst.
         }
+    }
+}
+
+/// Whether a port error only means "not now" (nothing to read, no room to
+/// write).
+fn is_busy(e: &std::io::Error) -> bool {
+    matches!(
+        e.kind(),
+        ErrorKind::TimedOut | ErrorKind::WouldBlock | ErrorKind::Interrupted
+    )
+}
+
+/// How long a read or write on the emulator's port may wait.
+const PORT_TIMEOUT: Duration = Duration::from_millis(1);
+
+/// Where [`open`] put the emulator.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Endpoint {
+    /// The path was a port (or a link to one): opened as it is, the path
+    /// left in place.
+    Port,
+    /// A new pseudo-terminal, linked at the path.
+    Pty {
+        /// The pseudo-terminal's slave end, where the link points.
+        slave: PathBuf,
+        /// Where the dangling link that was replaced pointed, if there was
+        /// one (a pseudo-terminal of an earlier emulator, gone).
+        replaced: Option<PathBuf>,
+    },
+}
+
+/// Why [`open`] failed; displays as the `<what>` of an error line about
+/// the path.
+#[derive(Debug, thiserror::Error)]
+pub enum OpenError {
+    /// The path is a file or a folder.
+    #[error("{0}, not a serial port")]
+    NotAPort(&'static str),
+    /// A dangling link that does not point where pseudo-terminals live: not
+    /// one an emulator made, so it is left alone.
+    #[error(
+        "a link to {}, which does not exist (only a link to a pseudo-terminal that is gone is replaced)",
+        .0.display()
+    )]
+    DanglingLink(PathBuf),
+    /// The port would not open.
+    #[error("cannot open: {0}")]
+    Open(serialport::Error),
+    /// No pseudo-terminal could be made.
+    #[error("cannot create a pseudo-terminal: {0}")]
+    Pty(serialport::Error),
+    /// The path could not be read.
+    #[error("cannot read: {0}")]
+    Inspect(std::io::Error),
+    /// The dangling link could not be removed.
+    #[error("cannot remove the dangling link: {0}")]
+    Unlink(std::io::Error),
+    /// The new pseudo-terminal could not be linked at the path.
+    #[error("cannot link: {0}")]
+    Link(std::io::Error),
+}
+
+/// An emulator on its port, ready to [`serve`](Emulator::serve).
+#[derive(Debug)]
+pub struct Emulator {
+    port: serialport::TTYPort,
+    /// A new pseudo-terminal's slave end, held open: the master's reads
+    /// fail once every slave handle is closed.
+    _slave: Option<serialport::TTYPort>,
+    endpoint: Endpoint,
+}
+
+impl Emulator {
+    /// Where the emulator is.
+    #[must_use]
+    pub fn endpoint(&self) -> &Endpoint {
+        &self.endpoint
+    }
+
+    /// Runs the emulator until its port fails (see [`serve`]).
+    ///
+    /// # Errors
+    /// An I/O error on the port.
+    pub fn serve(&mut self, on_tick: impl FnMut(&EmulatorCore)) -> std::io::Result<()> {
+        serve(&mut self.port, on_tick)
+    }
+}
+
+/// Finds the emulator's port for `path`:
+/// - a path that exists (a port, or a link to one, as in
+///   `/dev/serial/by-id/`) is opened as a port, and left as it is;
+/// - a path where nothing is gets a new pseudo-terminal, linked there;
+/// - so does a dangling link to a pseudo-terminal (as an earlier emulator
+///   leaves behind): the link is replaced. Any other dangling link is an
+///   error.
+///
+/// # Errors
+/// What went wrong, for `error: <path>: <what>`.
+pub fn open(path: &Path) -> Result<Emulator, OpenError> {
+    match std::fs::metadata(path) {
+        Ok(meta) => return open_port(path, &meta),
+        Err(e) if e.kind() != ErrorKind::NotFound => return Err(OpenError::Inspect(e)),
+        Err(_) => {}
+    }
+    // Nothing there, or a link to nothing.
+    let dangling = match std::fs::read_link(path) {
+        Ok(target) => Some(target),
+        Err(e) if e.kind() == ErrorKind::NotFound => None,
+        Err(e) => return Err(OpenError::Inspect(e)),
+    };
+    let (mut master, slave) = serialport::TTYPort::pair().map_err(OpenError::Pty)?;
+    serialport::SerialPort::set_timeout(&mut master, PORT_TIMEOUT).map_err(OpenError::Pty)?;
+    let slave_path = serialport::SerialPort::name(&slave).map_or_else(
+        || {
+            Err(OpenError::Pty(serialport::Error::new(
+                serialport::ErrorKind::Unknown,
+                "the pseudo-terminal has no name",
+            )))
+        },
+        |name| Ok(PathBuf::from(name)),
+    )?;
+    if let Some(target) = &dangling {
+        if target.parent() != slave_path.parent() {
+            return Err(OpenError::DanglingLink(target.clone()));
+        }
+        std::fs::remove_file(path).map_err(OpenError::Unlink)?;
+    }
+    std::os::unix::fs::symlink(&slave_path, path).map_err(OpenError::Link)?;
+    Ok(Emulator {
+        port: master,
+        _slave: Some(slave),
+        endpoint: Endpoint::Pty {
+            slave: slave_path,
+            replaced: dangling,
+        },
+    })
+}
+
+/// Opens the existing `path` as a port.
+fn open_port(path: &Path, meta: &std::fs::Metadata) -> Result<Emulator, OpenError> {
+    if let Some(what) = super::not_a_port(meta) {
+        return Err(OpenError::NotAPort(what));
+    }
+    let port = serialport::new(path.to_string_lossy(), super::transport::BAUD)
+        .timeout(PORT_TIMEOUT)
+        .open_native()
+        .map_err(OpenError::Open)?;
+    Ok(Emulator {
+        port,
+        _slave: None,
+        endpoint: Endpoint::Port,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device::wire::frame;
+
+    const HELLO: Message = Message::Hello {
+        version: PROTOCOL_VERSION,
+    };
+
+    fn ticks(core: &mut EmulatorCore, n: usize) -> usize {
+        (0..n).filter_map(|_| core.tick(0.001)).count()
+    }
+
+    /// Issue 13: an emulator nobody listens to sends nothing, so the line's
+    /// buffer cannot fill before a host comes.
+    #[test]
+    fn the_core_is_silent_until_a_host_says_hello_issue_13() {
+        let mut core = EmulatorCore::new();
+        assert_eq!(ticks(&mut core, 5000), 0, "nothing before a Hello");
+        assert!(!core.has_host());
+        // Commands and hand drives without a Hello start nothing either.
+        core.receive(Message::Heartbeat { seq: 1 });
+        assert_eq!(ticks(&mut core, 10), 0);
+        assert_eq!(core.receive(HELLO), Some(core.capabilities()));
+        assert!(core.has_host());
+        assert_eq!(ticks(&mut core, 10), 10, "one sample per tick");
+    }
+
+    /// Issue 13: host after host is served; a host that has gone quiet for
+    /// HOST_GONE_S is gone, and the next one is served after its Hello.
+    #[test]
+    fn the_core_goes_quiet_when_its_host_does_and_serves_the_next_issue_13() {
+        let mut core = EmulatorCore::new();
+        core.receive(HELLO);
+        // A host that keeps commanding stays served well past HOST_GONE_S.
+        for seq in 0..3000 {
+            core.receive(Message::Command {
+                seq,
+                force_n: 0.0,
+                vibration: 0.0,
+            });
+            assert!(core.tick(0.001).is_some(), "tick {seq}");
+        }
+        // It goes away: samples for HOST_GONE_S, then silence.
+        let sent = ticks(&mut core, 3000) as f64;
+        assert!((sent - HOST_GONE_S * 1000.0).abs() <= 1.0, "{sent} samples");
+        assert!(!core.has_host());
+        // Stray frames do not bring it back; the next Hello does.
+        core.receive(Message::Heartbeat { seq: 9 });
+        assert_eq!(ticks(&mut core, 10), 0);
+        core.receive(HELLO);
+        assert_eq!(ticks(&mut core, 10), 10);
+    }
+
+    /// A port whose reads give `reads` in turn, then fail for good, and whose
+    /// writes never find room.
+    struct FullPort {
+        reads: Vec<std::io::Result<Vec<u8>>>,
+        writes: usize,
+    }
+
+    impl Read for FullPort {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            if self.reads.is_empty() {
+                return Err(std::io::Error::other("unplugged"));
+            }
+            let bytes = self.reads.remove(0)?;
+            buf[..bytes.len()].copy_from_slice(&bytes);
+            Ok(bytes.len())
+        }
+    }
+
+    impl Write for FullPort {
+        fn write(&mut self, _: &[u8]) -> std::io::Result<usize> {
+            self.writes += 1;
+            Err(ErrorKind::TimedOut.into())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    /// Issue 13: a full line costs frames, not the emulator; only a real
+    /// port error ends `serve`.
+    #[test]
+    fn serve_drops_what_a_full_port_cannot_take_and_ends_only_on_a_port_error_issue_13() {
+        let mut reads = vec![Ok(frame(&HELLO))];
+        reads.extend((0..20).map(|_| Err(ErrorKind::TimedOut.into())));
+        let mut port = FullPort { reads, writes: 0 };
+        let mut served = 0;
+        let e = serve(&mut port, |core| served += usize::from(core.has_host())).unwrap_err();
+        assert_eq!(e.to_string(), "unplugged");
+        assert_eq!(served, 21, "every tick ran with the host");
+        // Capabilities and 21 samples were tried, and dropped.
+        assert_eq!(port.writes, 22);
     }
 }

@@ -52,24 +52,31 @@ pub fn list_ports() -> Result<Vec<PortInfo>, String> {
 /// # Errors
 /// What is wrong, for `error: --device: <path>: <what>`.
 pub fn check_port(path: &std::path::Path) -> Result<(), String> {
-    use std::os::unix::fs::FileTypeExt as _;
     let meta = std::fs::metadata(path).map_err(|_| {
         "no such serial port (frictionlab ports lists them; 'sim' is the simulated device)"
             .to_owned()
     })?;
-    if meta.file_type().is_char_device() {
-        return Ok(());
+    match not_a_port(&meta) {
+        None => Ok(()),
+        Some(what) => Err(format!(
+            "{what}, not a serial port (frictionlab ports lists them; 'sim' is the simulated device)"
+        )),
     }
-    let what = if meta.is_dir() {
-        "a directory"
+}
+
+/// What a file is if it cannot be a serial port (`a directory`, ...); `None`
+/// for a character device.
+fn not_a_port(meta: &std::fs::Metadata) -> Option<&'static str> {
+    use std::os::unix::fs::FileTypeExt as _;
+    if meta.file_type().is_char_device() {
+        None
+    } else if meta.is_dir() {
+        Some("a directory")
     } else if meta.is_file() {
-        "a regular file"
+        Some("a regular file")
     } else {
-        "not a character device"
-    };
-    Err(format!(
-        "{what}, not a serial port (frictionlab ports lists them; 'sim' is the simulated device)"
-    ))
+        Some("not a character device")
+    }
 }
 
 /// What a device reports each loop tick.

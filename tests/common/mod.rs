@@ -91,3 +91,15 @@ pub fn emulator(path: &std::path::Path) -> std::process::Child {
     }
     child
 }
+
+/// The completed trials of a session log, in plan order.
+pub fn completed_trials(log: &frictionlab::results::ReadLog) -> Vec<usize> {
+    let mut completed: Vec<usize> = log
+        .trials
+        .iter()
+        .filter(|r| r.status == frictionlab::protocol::engine::Status::Completed)
+        .map(|r| r.trial)
+        .collect();
+    completed.sort_unstable();
+    completed
+}

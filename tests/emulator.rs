@@ -1,0 +1,226 @@
+//! `frictionlab device-emulator` as a user starts it (issue 13): left idle
+//! before anyone connects, serving one session after another, given a link
+//! to an existing pseudo-terminal, and behind a pseudo-terminal relay opened
+//! late.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    reason = "a failed unwrap is a failed test"
+)]
+
+mod common;
+
+use std::io::{Read, Write};
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+use std::sync::Arc;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use frictionlab::device::wire::{Decoder, Message, PROTOCOL_VERSION, frame};
+use frictionlab::results::read_log;
+use serialport::{SerialPort, TTYPort};
+
+/// `TTYPort::pair` is not thread-safe: tests that make pairs take turns.
+static PTY: Mutex<()> = Mutex::new(());
+
+fn pty_pair() -> (TTYPort, TTYPort) {
+    let _pty = PTY
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    TTYPort::pair().unwrap()
+}
+
+/// Runs session `session` of `protocol` (with `trials` planned trials) with
+/// a simulated participant on the device at `dev`, and checks that it ends
+/// with exit 0 and every planned trial completed; returns how long the run
+/// took.
+fn a_whole_session_runs_on(
+    dev: &Path,
+    out: &Path,
+    (protocol, trials, session): (&str, usize, u32),
+) -> Duration {
+    let path = format!("{}/protocols/{protocol}.json", env!("CARGO_MANIFEST_DIR"));
+    let started = Instant::now();
+    let o: Output = Command::new(env!("CARGO_BIN_EXE_frictionlab"))
+        .args(["run", &path, "--participant", "p", "--out"])
+        .arg(out)
+        .arg("--device")
+        .arg(dev)
+        .args(["--responder", "sim", "--seed", "5"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .output()
+        .unwrap();
+    let took = started.elapsed();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let log = out.join(format!(
+        "logs/study-{}_subject-p_session-{session}_log.jsonl",
+        protocol.replace('-', "")
+    ));
+    let log = read_log(&log).unwrap();
+    assert!(log.ended);
+    assert_eq!(
+        common::completed_trials(&log),
+        (0..trials).collect::<Vec<_>>(),
+        "every trial logged"
+    );
+    took
+}
+
+const MAGNITUDE_QUICK: (&str, usize, u32) = ("magnitude-quick", 6, 1);
+
+/// Issue 13: the emulator streamed samples before anyone listened, filled
+/// its pseudo-terminal's buffer and exited about 1.3 s after it started.
+#[test]
+fn an_emulator_left_idle_for_10_s_still_accepts_a_whole_session_issue_13() {
+    let dir = tempfile::tempdir().unwrap();
+    let dev = dir.path().join("dev");
+    let mut emu = common::emulator(&dev);
+    std::thread::sleep(Duration::from_secs(10));
+    assert!(
+        emu.try_wait().unwrap().is_none(),
+        "the emulator is still running after 10 s idle"
+    );
+    let took = a_whole_session_runs_on(&dev, &dir.path().join("results"), MAGNITUDE_QUICK);
+    emu.kill().unwrap();
+    emu.wait().unwrap();
+    eprintln!("session after 10 s idle: {took:?}");
+}
+
+/// Issue 13: after a host went away the emulator kept streaming into a
+/// buffer nobody read, and exited before the next host came. It must go
+/// quiet and serve the next host after its Hello.
+#[test]
+fn an_emulator_serves_one_session_after_another_issue_13() {
+    let dir = tempfile::tempdir().unwrap();
+    let dev = dir.path().join("dev");
+    let mut emu = common::emulator(&dev);
+    let out = dir.path().join("results");
+    let first = a_whole_session_runs_on(&dev, &out, ("paired-quick", 1, 1));
+    // Longer than HOST_GONE_S: the emulator has gone quiet.
+    std::thread::sleep(Duration::from_secs(2));
+    let second = a_whole_session_runs_on(&dev, &out, ("paired-quick", 1, 2));
+    emu.kill().unwrap();
+    emu.wait().unwrap();
+    eprintln!("sessions one after the other: {first:?}, {second:?}");
+}
+
+/// Issue 13: given a link to an existing pseudo-terminal (as every
+/// `/dev/serial/by-id/` name is a link to a port), the emulator removed the
+/// link and put a pseudo-terminal of its own there. It must serve the port
+/// the link points to and leave the link alone.
+#[test]
+fn an_emulator_given_a_link_to_an_existing_pty_serves_it_and_keeps_the_link_issue_13() {
+    let (mut master, slave) = pty_pair();
+    let target = slave.name().unwrap();
+    master.set_timeout(Duration::from_millis(10)).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let link = dir.path().join("by-id-link");
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    let emu = Command::new(env!("CARGO_BIN_EXE_frictionlab"))
+        .arg("device-emulator")
+        .arg(&link)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The host side of the port: Hello every 50 ms until Capabilities come.
+    let mut decoder = Decoder::new();
+    let (mut capabilities, mut samples) = (None, 0);
+    let mut buf = [0_u8; 1024];
+    let started = Instant::now();
+    let mut last_hello: Option<Instant> = None;
+    while samples < 100 && started.elapsed() < Duration::from_secs(5) {
+        if last_hello.is_none_or(|t| t.elapsed() > Duration::from_millis(50))
+            && capabilities.is_none()
+        {
+            master
+                .write_all(&frame(&Message::Hello {
+                    version: PROTOCOL_VERSION,
+                }))
+                .unwrap();
+            last_hello = Some(Instant::now());
+        }
+        let n = master.read(&mut buf).unwrap_or(0);
+        decoder.feed(&buf[..n], |m| match m {
+            Message::Capabilities { .. } => capabilities = Some(m),
+            Message::Sample { .. } if capabilities.is_some() => samples += 1,
+            _ => {}
+        });
+    }
+    let link_now = std::fs::read_link(&link);
+    let mut emu = emu;
+    emu.kill().unwrap();
+    let o = emu.wait_with_output().unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(
+        link_now.ok().as_deref(),
+        Some(Path::new(&target)),
+        "the link is left in place, pointing at the same port; stdout: {stdout} stderr: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        matches!(
+            capabilities,
+            Some(Message::Capabilities {
+                version: PROTOCOL_VERSION,
+                ..
+            })
+        ),
+        "Capabilities after Hello on the linked port: {capabilities:?}"
+    );
+    assert_eq!(samples, 100, "samples stream after the handshake");
+    assert_eq!(stdout, format!("device emulator on {}\n", link.display()));
+    drop(slave);
+}
+
+/// Copies bytes both ways between `a` and `b` until `stop` is set.
+fn relay(a: TTYPort, b: TTYPort, stop: &Arc<AtomicBool>) -> Vec<std::thread::JoinHandle<()>> {
+    let one_way = |mut from: TTYPort, mut to: TTYPort, stop: Arc<AtomicBool>| {
+        std::thread::spawn(move || {
+            let mut buf = [0_u8; 4096];
+            while !stop.load(Ordering::Relaxed) {
+                if let Ok(n) = from.read(&mut buf) {
+                    let _ = to.write_all(&buf[..n]);
+                }
+            }
+        })
+    };
+    let (a2, b2) = (a.try_clone_native().unwrap(), b.try_clone_native().unwrap());
+    vec![one_way(a, b2, stop.clone()), one_way(b, a2, stop.clone())]
+}
+
+/// Issue 13: behind a relay (a pseudo-terminal whose master is copied to
+/// the emulator's port) started 2 s after the emulator, a session got no
+/// answer: the emulator had filled its buffer and exited.
+#[test]
+fn a_session_through_a_pty_relay_opened_2_s_after_the_emulator_completes_issue_13() {
+    let dir = tempfile::tempdir().unwrap();
+    let dev = dir.path().join("dev");
+    let mut emu = common::emulator(&dev);
+    std::thread::sleep(Duration::from_secs(2));
+    let emulator_port = serialport::new(dev.to_string_lossy(), 115_200)
+        .timeout(Duration::from_millis(10))
+        .open_native()
+        .unwrap_or_else(|e| panic!("the emulator's port 2 s after it started: {e}"));
+    let (mut relay_master, relay_slave) = pty_pair();
+    relay_master.set_timeout(Duration::from_millis(10)).unwrap();
+    let relay_path = relay_slave.name().unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let copying = relay(emulator_port, relay_master, &stop);
+    let took = a_whole_session_runs_on(
+        Path::new(&relay_path),
+        &dir.path().join("results"),
+        MAGNITUDE_QUICK,
+    );
+    stop.store(true, Ordering::Relaxed);
+    for t in copying {
+        t.join().unwrap();
+    }
+    drop(relay_slave);
+    emu.kill().unwrap();
+    emu.wait().unwrap();
+    eprintln!("session through the relay: {took:?}");
+}
