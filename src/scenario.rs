@@ -32,6 +32,7 @@ use crate::friction::{
     Friction, Input, ModelParams, Output, ParamError, Phase, StepParams, collect, non_negative,
     positive,
 };
+use crate::hand::{Hand, HandDrive};
 
 /// Seed 000's slide: a compliant hand that starts sliding after a long stick.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -430,6 +431,7 @@ pub fn min_jerk(from: f64, to: f64, duration: f64, t: f64) -> (f64, f64) {
 fn spidar_slide(friction: &mut Friction, s: &SpidarSlide, dt: f64, max_steps: u64) -> Vec<Sample> {
     let mut out = Vec::new();
     let (mut x, mut v) = (0.0_f64, 0.0_f64);
+    let mut hand = Hand::default();
     let mut onset: Option<f64> = None;
     let mut end_t = s.stick_s + s.max_wait_s;
     let mut i = 0_u64;
@@ -450,8 +452,14 @@ fn spidar_slide(friction: &mut Friction, s: &SpidarSlide, dt: f64, max_steps: u6
         } else {
             (s.slide_speed_m_s * (t - s.stick_s), s.slide_speed_m_s)
         };
-        let a = (s.hand_stiffness_n_m * (xr - x) + s.hand_damping_n_s_m * (vr - v) + o.force_n)
-            / s.hand_mass_kg;
+        let drive = HandDrive {
+            x_m: xr,
+            v_m_s: vr,
+            stiffness_n_m: s.hand_stiffness_n_m,
+            damping_n_s_m: s.hand_damping_n_s_m,
+            ..HandDrive::default()
+        };
+        let a = (hand.force(&drive, x, v, dt) + o.force_n) / s.hand_mass_kg;
         v += a * dt;
         x += v * dt;
         i += 1;

@@ -15,6 +15,7 @@
 //! any port) runs the core at the force loop rate, dropping any frame the
 //! port cannot take at once.
 
+use crate::hand::{Hand, HandDrive};
 use std::io::{ErrorKind, Read, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -48,8 +49,10 @@ pub struct EmulatorCore {
     /// When the host last sent a valid frame, since its `Hello`; `None`
     /// while no host is there.
     host_heard_s: Option<f64>,
-    hand: (f64, f64, f64, f64, f64),
-    integral: f64,
+    /// The hand's drive as last received; its segment advances with each
+    /// drive of zero integral gain (see [`crate::hand`]).
+    drive: HandDrive,
+    hand: Hand,
     click: bool,
     x_m: f64,
     v_m_s: f64,
@@ -75,8 +78,8 @@ impl EmulatorCore {
             ack_seq: 0,
             last_command_s: None,
             host_heard_s: None,
-            hand: (0.0, 0.0, 0.0, 0.0, 0.0),
-            integral: 0.0,
+            drive: HandDrive::default(),
+            hand: Hand::default(),
             click: false,
             x_m: 0.0,
             v_m_s: 0.0,
@@ -141,17 +144,22 @@ impl EmulatorCore {
                 click,
             } => {
                 let finite = |x: f32| if x.is_finite() { f64::from(x) } else { 0.0 };
-                let new_target = (finite(x_m) - self.hand.0).abs() > 1e-3;
-                self.hand = (
-                    finite(x_m),
-                    finite(v_m_s),
-                    finite(stiffness_n_m),
-                    finite(damping_n_s_m),
-                    finite(integral),
-                );
-                if new_target {
-                    self.integral = 0.0;
-                }
+                let integral_gain = finite(integral);
+                // A relaxed drive (no integral gain) ends the movement
+                // segment: the host sends one at each new segment.
+                let segment = if integral_gain > 0.0 {
+                    self.drive.segment
+                } else {
+                    self.drive.segment.wrapping_add(1)
+                };
+                self.drive = HandDrive {
+                    x_m: finite(x_m),
+                    v_m_s: finite(v_m_s),
+                    stiffness_n_m: finite(stiffness_n_m),
+                    damping_n_s_m: finite(damping_n_s_m),
+                    integral_gain,
+                    segment,
+                };
                 self.click |= click;
                 None
             }
@@ -159,6 +167,12 @@ impl EmulatorCore {
                 None
             }
         }
+    }
+
+    /// The hand's integral effort now, N (see [`crate::hand`]).
+    #[must_use]
+    pub fn hand_integral_n(&self) -> f64 {
+        self.hand.integral_n()
     }
 
     /// Advances the firmware by `dt`; returns this tick's sample, or `None`
@@ -169,14 +183,7 @@ impl EmulatorCore {
             .last_command_s
             .is_none_or(|t| self.now_s - t > WATCHDOG_S);
         let force = if watchdog { 0.0 } else { self.force_n };
-        let (x, v, k, b, ki) = self.hand;
-        let e = x - self.x_m;
-        self.integral = if ki > 0.0 {
-            (self.integral + ki * e * dt).clamp(-12.0, 12.0)
-        } else {
-            0.0
-        };
-        let hand = k * e + b * (v - self.v_m_s) + self.integral;
+        let hand = self.hand.force(&self.drive, self.x_m, self.v_m_s, dt);
         let sample = self.device.step_commanded(dt, hand, force);
         self.x_m = sample.x_m;
         self.v_m_s = sample.v_m_s;
@@ -449,6 +456,38 @@ mod tests {
         assert_eq!(core.receive(HELLO), Some(core.capabilities()));
         assert!(core.has_host());
         assert_eq!(ticks(&mut core, 10), 10, "one sample per tick");
+    }
+
+    /// Issue 13: the emulator's hand is `hand.rs`'s, with its one reset
+    /// rule: a target that moves keeps the effort built (it used to restart
+    /// whenever the target moved 1 mm); a relaxed drive ends the segment.
+    #[test]
+    fn the_emulated_hand_restarts_its_effort_only_at_a_new_segment_issue_13() {
+        let mut core = EmulatorCore::new();
+        core.receive(HELLO);
+        let drive = |x_m: f32, integral: f32| Message::HandDrive {
+            x_m,
+            v_m_s: 0.0,
+            stiffness_n_m: 0.0,
+            damping_n_s_m: 0.0,
+            integral,
+            click: false,
+        };
+        core.receive(drive(0.010, 3000.0));
+        ticks(&mut core, 50);
+        let built = core.hand_integral_n();
+        assert!(built > 1.0, "{built}");
+        core.receive(drive(0.015, 3000.0));
+        ticks(&mut core, 1);
+        assert!(core.hand_integral_n() > built, "moving the target keeps it");
+        core.receive(drive(0.015, 0.0));
+        core.receive(drive(0.015, 3000.0));
+        ticks(&mut core, 1);
+        assert!(
+            core.hand_integral_n() < 0.1,
+            "a new segment restarts it: {}",
+            core.hand_integral_n()
+        );
     }
 
     /// Issue 13: host after host is served; a host that has gone quiet for

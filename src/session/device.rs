@@ -43,6 +43,7 @@ pub(super) struct Port {
     pub(super) link: LinkState,
     button: bool,
     last_hand_s: f64,
+    hand_segment: Option<u32>,
 }
 
 impl Port {
@@ -55,6 +56,7 @@ impl Port {
             link: LinkState::Connecting,
             button: false,
             last_hand_s: f64::NEG_INFINITY,
+            hand_segment: None,
         }
     }
 
@@ -77,13 +79,23 @@ impl Port {
     }
 
     /// Sends the hand drive to the device, at most every [`HAND_EVERY_S`]
-    /// of device time `now_s` (only the emulator has a hand to drive; real
-    /// firmware ignores the message).
+    /// of device time `now_s`, and at once when a new movement segment
+    /// starts, preceded by a relaxed drive (zero integral gain) that ends
+    /// the last: the wire carries the segment that way (only the emulator
+    /// has a hand to drive; real firmware ignores the message).
     pub(super) fn drive_hand(&mut self, now_s: f64, drive: &HandDrive) {
-        if now_s - self.last_hand_s >= HAND_EVERY_S {
+        use crate::device::wire::hand_drive;
+        let new_segment = self.hand_segment.replace(drive.segment) != Some(drive.segment);
+        if new_segment {
+            let relaxed = HandDrive {
+                integral_gain: 0.0,
+                ..*drive
+            };
+            self.haptic.send(ToLoop::Device(hand_drive(&relaxed)));
+        }
+        if new_segment || now_s - self.last_hand_s >= HAND_EVERY_S {
             self.last_hand_s = now_s;
-            self.haptic
-                .send(ToLoop::Device(crate::device::wire::hand_drive(drive)));
+            self.haptic.send(ToLoop::Device(hand_drive(drive)));
         }
     }
 }
