@@ -426,12 +426,7 @@ impl ReadLog {
     /// A trial is final when completed, or aborted and not re-queued.
     #[must_use]
     pub fn next_trial(&self) -> usize {
-        self.trials
-            .iter()
-            .filter(|r| !r.requeued)
-            .map(|r| r.trial + 1)
-            .max()
-            .unwrap_or(0)
+        crate::protocol::engine::next_position(&self.trials)
     }
 }
 

@@ -56,13 +56,14 @@ pub mod responder;
 pub mod view;
 
 use std::collections::VecDeque;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 pub use device::{DeviceStatus, HAND_EVERY_S, percentile};
 pub use headless::{
     SessionOutcome, Simulation, participant_seed, run_device, run_planned, run_simulated,
     sim_participant, simulate_participants,
 };
+use open::Log;
 pub use open::{DeviceChoice, OpenLog, Planned, SessionRequest, plan};
 pub use record::StreamRecorder;
 pub use responder::{
@@ -78,7 +79,7 @@ use crate::device::sim::{Apparatus, SimDevice};
 use crate::friction::StepParams;
 use crate::protocol::engine::{Action, Engine, Input};
 use crate::results::{Header, LogLine, ResultsDir, ResultsError};
-use device::{Device, Port, count_f64};
+use device::{Device, Port};
 use view::Trace;
 
 /// The session a person runs from the window.
@@ -132,55 +133,6 @@ pub enum SessionError {
     /// The haptic loop could not start.
     #[error("cannot start the haptic loop: {0}")]
     Loop(std::io::Error),
-}
-
-/// The session's files: planned (nothing written; notes wait), or open.
-enum Log {
-    Planned {
-        planned: Box<Planned>,
-        dir: ResultsDir,
-        notes: Vec<String>,
-    },
-    Open(Box<OpenLog>),
-}
-
-impl Log {
-    /// Opens planned files, writing the notes that waited; open files stay.
-    fn open(&mut self) -> Result<&mut OpenLog, ResultsError> {
-        if let Log::Planned {
-            planned,
-            dir,
-            notes,
-        } = self
-        {
-            let mut open = planned.open(dir)?;
-            for text in notes.drain(..) {
-                open.log.append(&LogLine::Note { text })?;
-            }
-            *self = Log::Open(Box::new(open));
-        }
-        match self {
-            Log::Open(open) => Ok(open),
-            Log::Planned { .. } => Err(ResultsError::Input {
-                place: "session".into(),
-                message: "the session's files are not open".into(),
-            }),
-        }
-    }
-
-    fn opened(&mut self) -> Option<&mut OpenLog> {
-        match self {
-            Log::Open(open) => Some(open),
-            Log::Planned { .. } => None,
-        }
-    }
-
-    fn header(&self) -> &Header {
-        match self {
-            Log::Open(open) => &open.read.header,
-            Log::Planned { planned, .. } => planned.header(),
-        }
-    }
 }
 
 /// An input waiting for the engine, or the engine's due timeout.
@@ -612,176 +564,6 @@ impl<R: Responder> Session<R> {
                 notes.push(text.to_owned());
                 Ok(())
             }
-        }
-    }
-
-    /// What the participant's screen shows.
-    #[must_use]
-    pub fn view(&self) -> &View {
-        &self.view
-    }
-
-    /// Where the session stands.
-    #[must_use]
-    pub fn phase(&self) -> Phase {
-        self.phase
-    }
-
-    /// Whether the log is open (on a port: the device has answered).
-    #[must_use]
-    pub fn is_open(&self) -> bool {
-        matches!(self.log, Log::Open(_))
-    }
-
-    /// How long the device has not answered, s (None while it answers).
-    #[must_use]
-    pub fn lost_for_s(&self) -> Option<f64> {
-        self.lost_since.map(|since| self.t - since)
-    }
-
-    /// Records written by this run, and the planned index of the last.
-    #[must_use]
-    pub fn records(&self) -> (usize, Option<usize>) {
-        (self.records, self.last_record)
-    }
-
-    /// Trials completed in the whole session so far.
-    #[must_use]
-    pub fn completed(&self) -> usize {
-        match &self.log {
-            Log::Open(open) => open.read.completed(),
-            Log::Planned { .. } => 0,
-        }
-    }
-
-    /// The responder.
-    pub fn responder_mut(&mut self) -> &mut R {
-        &mut self.responder
-    }
-
-    /// Session number.
-    #[must_use]
-    pub fn session(&self) -> u32 {
-        self.log.header().session
-    }
-
-    /// The plan seed (logged in the header).
-    #[must_use]
-    pub fn plan_seed(&self) -> u64 {
-        self.log.header().plan_seed
-    }
-
-    /// The participant id.
-    #[must_use]
-    pub fn participant(&self) -> &str {
-        &self.log.header().participant
-    }
-
-    /// The data CSV.
-    #[must_use]
-    pub fn csv(&self) -> &Path {
-        match &self.log {
-            Log::Open(open) => &open.csv,
-            Log::Planned { planned, .. } => &planned.files().csv,
-        }
-    }
-
-    /// The session log.
-    #[must_use]
-    pub fn log_path(&self) -> &Path {
-        match &self.log {
-            Log::Open(open) => open.log.path(),
-            Log::Planned { planned, .. } => &planned.files().log,
-        }
-    }
-
-    /// Session time, s.
-    #[must_use]
-    pub fn now_s(&self) -> f64 {
-        self.t
-    }
-
-    /// The latest device sample.
-    #[must_use]
-    pub fn sample(&self) -> DeviceSample {
-        self.sample
-    }
-
-    /// The last [`TRACE_LENGTH_S`] of position and force (empty without
-    /// [`Session::with_trace`]).
-    #[must_use]
-    pub fn trace(&self) -> &VecDeque<TracePoint> {
-        static EMPTY: VecDeque<TracePoint> = VecDeque::new();
-        self.trace.as_ref().map_or(&EMPTY, |t| &t.points)
-    }
-
-    /// The engine (plan, current trial).
-    #[must_use]
-    pub fn engine(&self) -> &Engine {
-        &self.engine
-    }
-
-    /// Progress.
-    #[must_use]
-    pub fn progress(&self) -> Progress {
-        let index = self.engine.trial_index();
-        let total = self.engine.planned_trials().unwrap_or(index);
-        let left = total.saturating_sub(index);
-        let remaining_s = (self.done_this_run > 0)
-            .then(|| (self.t - self.start_t) / count_f64(self.done_this_run) * count_f64(left));
-        Progress {
-            trial: (index + 1).min(total),
-            total,
-            block: self
-                .engine
-                .trial()
-                .map(|t| t.block.clone())
-                .unwrap_or_default(),
-            elapsed_s: self.t,
-            remaining_s: if self.phase == Phase::Finished {
-                Some(0.0)
-            } else {
-                remaining_s
-            },
-        }
-    }
-
-    /// The device's live state.
-    #[must_use]
-    pub fn device_status(&self) -> DeviceStatus {
-        let (connected, rate_hz, period_p99_s) = self.device.status();
-        DeviceStatus {
-            device: self.device_label.clone(),
-            connected,
-            rate_hz,
-            period_p99_s,
-            force_n: self.sample.force_n,
-            x_m: self.sample.x_m,
-        }
-    }
-
-    /// How the run went so far.
-    #[must_use]
-    pub fn outcome(&self) -> SessionOutcome {
-        let (completed, aborted) = match &self.log {
-            Log::Open(open) => (
-                open.read.completed(),
-                open.read.trials.len() - open.read.completed(),
-            ),
-            Log::Planned { .. } => (0, 0),
-        };
-        SessionOutcome {
-            session: self.session(),
-            completed,
-            aborted,
-            resumed_at: self.resumed_at,
-            torn_bytes: match &self.log {
-                Log::Open(open) => open.torn_bytes,
-                Log::Planned { .. } => 0,
-            },
-            simulated_s: self.t - self.start_t,
-            csv: self.csv().to_owned(),
-            log: self.log_path().to_owned(),
         }
     }
 }

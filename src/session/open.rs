@@ -272,3 +272,52 @@ impl Planned {
         }
     }
 }
+
+/// The session's files: planned (nothing written; notes wait), or open.
+pub(super) enum Log {
+    Planned {
+        planned: Box<Planned>,
+        dir: ResultsDir,
+        notes: Vec<String>,
+    },
+    Open(Box<OpenLog>),
+}
+
+impl Log {
+    /// Opens planned files, writing the notes that waited; open files stay.
+    pub(super) fn open(&mut self) -> Result<&mut OpenLog, ResultsError> {
+        if let Log::Planned {
+            planned,
+            dir,
+            notes,
+        } = self
+        {
+            let mut open = planned.open(dir)?;
+            for text in notes.drain(..) {
+                open.log.append(&LogLine::Note { text })?;
+            }
+            *self = Log::Open(Box::new(open));
+        }
+        match self {
+            Log::Open(open) => Ok(open),
+            Log::Planned { .. } => Err(ResultsError::Input {
+                place: "session".into(),
+                message: "the session's files are not open".into(),
+            }),
+        }
+    }
+
+    pub(super) fn opened(&mut self) -> Option<&mut OpenLog> {
+        match self {
+            Log::Open(open) => Some(open),
+            Log::Planned { .. } => None,
+        }
+    }
+
+    pub(super) fn header(&self) -> &Header {
+        match self {
+            Log::Open(open) => &open.read.header,
+            Log::Planned { planned, .. } => planned.header(),
+        }
+    }
+}

@@ -3,8 +3,12 @@
 
 use std::collections::VecDeque;
 
+use std::path::Path;
+
+use super::device::count_f64;
+use super::{DeviceStatus, Log, Responder, Session, SessionOutcome};
 use crate::device::DeviceSample;
-use crate::protocol::engine::{Action, Question, Screen};
+use crate::protocol::engine::{Action, Engine, Question, Screen};
 
 /// Interval of the live trace, s (200 Hz).
 pub const TRACE_EVERY_S: f64 = 0.005;
@@ -128,5 +132,178 @@ impl Trace {
             vibration: self.peak_vibration,
         });
         self.peak_vibration = 0.0;
+    }
+}
+
+/// What a session shows and reports.
+impl<R: Responder> Session<R> {
+    /// What the participant's screen shows.
+    #[must_use]
+    pub fn view(&self) -> &View {
+        &self.view
+    }
+
+    /// Where the session stands.
+    #[must_use]
+    pub fn phase(&self) -> Phase {
+        self.phase
+    }
+
+    /// Whether the log is open (on a port: the device has answered).
+    #[must_use]
+    pub fn is_open(&self) -> bool {
+        matches!(self.log, Log::Open(_))
+    }
+
+    /// How long the device has not answered, s (None while it answers).
+    #[must_use]
+    pub fn lost_for_s(&self) -> Option<f64> {
+        self.lost_since.map(|since| self.t - since)
+    }
+
+    /// Records written by this run, and the planned index of the last.
+    #[must_use]
+    pub fn records(&self) -> (usize, Option<usize>) {
+        (self.records, self.last_record)
+    }
+
+    /// Trials completed in the whole session so far.
+    #[must_use]
+    pub fn completed(&self) -> usize {
+        match &self.log {
+            Log::Open(open) => open.read.completed(),
+            Log::Planned { .. } => 0,
+        }
+    }
+
+    /// The responder.
+    pub fn responder_mut(&mut self) -> &mut R {
+        &mut self.responder
+    }
+
+    /// Session number.
+    #[must_use]
+    pub fn session(&self) -> u32 {
+        self.log.header().session
+    }
+
+    /// The plan seed (logged in the header).
+    #[must_use]
+    pub fn plan_seed(&self) -> u64 {
+        self.log.header().plan_seed
+    }
+
+    /// The participant id.
+    #[must_use]
+    pub fn participant(&self) -> &str {
+        &self.log.header().participant
+    }
+
+    /// The data CSV.
+    #[must_use]
+    pub fn csv(&self) -> &Path {
+        match &self.log {
+            Log::Open(open) => &open.csv,
+            Log::Planned { planned, .. } => &planned.files().csv,
+        }
+    }
+
+    /// The session log.
+    #[must_use]
+    pub fn log_path(&self) -> &Path {
+        match &self.log {
+            Log::Open(open) => open.log.path(),
+            Log::Planned { planned, .. } => &planned.files().log,
+        }
+    }
+
+    /// Session time, s.
+    #[must_use]
+    pub fn now_s(&self) -> f64 {
+        self.t
+    }
+
+    /// The latest device sample.
+    #[must_use]
+    pub fn sample(&self) -> DeviceSample {
+        self.sample
+    }
+
+    /// The last [`TRACE_LENGTH_S`] of position and force (empty without
+    /// [`Session::with_trace`]).
+    #[must_use]
+    pub fn trace(&self) -> &VecDeque<TracePoint> {
+        static EMPTY: VecDeque<TracePoint> = VecDeque::new();
+        self.trace.as_ref().map_or(&EMPTY, |t| &t.points)
+    }
+
+    /// The engine (plan, current trial).
+    #[must_use]
+    pub fn engine(&self) -> &Engine {
+        &self.engine
+    }
+
+    /// Progress.
+    #[must_use]
+    pub fn progress(&self) -> Progress {
+        let index = self.engine.trial_index();
+        let total = self.engine.planned_trials().unwrap_or(index);
+        let left = total.saturating_sub(index);
+        let remaining_s = (self.done_this_run > 0)
+            .then(|| (self.t - self.start_t) / count_f64(self.done_this_run) * count_f64(left));
+        Progress {
+            trial: (index + 1).min(total),
+            total,
+            block: self
+                .engine
+                .trial()
+                .map(|t| t.block.clone())
+                .unwrap_or_default(),
+            elapsed_s: self.t,
+            remaining_s: if self.phase == Phase::Finished {
+                Some(0.0)
+            } else {
+                remaining_s
+            },
+        }
+    }
+
+    /// The device's live state.
+    #[must_use]
+    pub fn device_status(&self) -> DeviceStatus {
+        let (connected, rate_hz, period_p99_s) = self.device.status();
+        DeviceStatus {
+            device: self.device_label.clone(),
+            connected,
+            rate_hz,
+            period_p99_s,
+            force_n: self.sample.force_n,
+            x_m: self.sample.x_m,
+        }
+    }
+
+    /// How the run went so far.
+    #[must_use]
+    pub fn outcome(&self) -> SessionOutcome {
+        let (completed, aborted) = match &self.log {
+            Log::Open(open) => (
+                open.read.completed(),
+                open.read.trials.len() - open.read.completed(),
+            ),
+            Log::Planned { .. } => (0, 0),
+        };
+        SessionOutcome {
+            session: self.session(),
+            completed,
+            aborted,
+            resumed_at: self.resumed_at,
+            torn_bytes: match &self.log {
+                Log::Open(open) => open.torn_bytes,
+                Log::Planned { .. } => 0,
+            },
+            simulated_s: self.t - self.start_t,
+            csv: self.csv().to_owned(),
+            log: self.log_path().to_owned(),
+        }
     }
 }
