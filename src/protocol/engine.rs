@@ -517,6 +517,12 @@ impl Engine {
         matches!(self.stage, Stage::Finished)
     }
 
+    /// Whether actions wait for [`Engine::poll`].
+    #[must_use]
+    pub fn has_actions(&self) -> bool {
+        !self.out.is_empty()
+    }
+
     /// The next action for the shell, if any.
     pub fn poll(&mut self) -> Option<Action> {
         self.out.pop_front()

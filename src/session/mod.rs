@@ -296,6 +296,11 @@ impl<R: Responder> Session<R> {
                 continue;
             }
             self.lost_since = None;
+            if matches!(self.log, Log::Planned { .. }) {
+                // The session starts (its files are written) once the
+                // device answers.
+                self.log.open()?;
+            }
             self.sample = DeviceSample {
                 x_m: tick.x_m,
                 v_m_s: tick.v_m_s,
@@ -397,26 +402,36 @@ impl<R: Responder> Session<R> {
                 ..DeviceSample::default()
             };
         }
-        self.pending
-            .extend(reaction.inputs.into_iter().map(Pending::Input));
+        if !reaction.inputs.is_empty() {
+            self.pending
+                .extend(reaction.inputs.into_iter().map(Pending::Input));
+        }
     }
 
     /// Carries out the engine's actions and feeds it pending inputs until
     /// nothing moves. Inputs wait while paused or while the device is lost;
     /// an abort goes through.
+    #[inline]
     fn settle(&mut self) -> Result<(), ResultsError> {
+        // Most ticks nothing is waiting.
+        if self.pending.is_empty() && !self.engine.has_actions() {
+            return Ok(());
+        }
+        self.settle_all()
+    }
+
+    fn settle_all(&mut self) -> Result<(), ResultsError> {
         loop {
             while let Some(action) = self.engine.poll() {
                 self.act(&action)?;
             }
-            let connected = self.device.connected();
-            if connected {
-                self.log.open()?;
-            }
-            let flows = self.phase == Phase::Running && connected;
-            let next = match self.pending.front() {
-                Some(Pending::Input(Input::Abort { .. })) => self.pending.pop_front(),
-                Some(_) if flows => self.pending.pop_front(),
+            let Some(front) = self.pending.front() else {
+                return Ok(());
+            };
+            let flows = self.phase == Phase::Running && self.device.connected();
+            let next = match front {
+                Pending::Input(Input::Abort { .. }) => self.pending.pop_front(),
+                _ if flows => self.pending.pop_front(),
                 _ => None,
             };
             match next {
