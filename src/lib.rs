@@ -16,6 +16,7 @@ pub mod gui;
 pub mod identify;
 pub mod live;
 pub mod participant;
+pub mod problem;
 pub mod protocol;
 pub mod render;
 pub mod results;

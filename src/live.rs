@@ -273,10 +273,10 @@ impl Files {
         Ok(match self {
             Files::Open(open) => open,
             Files::Planned { .. } => {
-                return Err(ResultsError::Input {
-                    place: "session".into(),
-                    message: "the session's files are not open".into(),
-                });
+                return Err(ResultsError::input(
+                    "session",
+                    "the session's files are not open",
+                ));
             }
         })
     }

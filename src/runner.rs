@@ -121,24 +121,24 @@ pub(crate) fn plan_session(
     let sessions = dir.sessions(id, req.participant)?;
     if req.resume {
         let Some(last) = sessions.into_iter().next_back() else {
-            return Err(ResultsError::Input {
-                place: "--resume".into(),
-                message: format!(
+            return Err(ResultsError::input(
+                "--resume",
+                format!(
                     "participant '{}' has no session of '{id}' in {}",
                     req.participant,
                     dir.root().display()
                 ),
-            });
+            ));
         };
         let read = read_log(&last.log)?;
         if read.ended {
-            return Err(ResultsError::Input {
-                place: "--resume".into(),
-                message: format!(
+            return Err(ResultsError::input(
+                "--resume",
+                format!(
                     "session {} of participant '{}' has ended: nothing to resume",
                     last.session, req.participant
                 ),
-            });
+            ));
         }
         let h = &read.header;
         return Ok(Planned {

@@ -29,9 +29,9 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::friction::{
-    ForceLimit, Friction, Input, ModelParams, Output, ParamError, Phase, collect, non_negative,
-    positive,
+    ForceLimit, Friction, Input, ModelParams, Output, Phase, collect, non_negative, positive,
 };
+use crate::problem::Problem;
 
 /// Seed 000's slide: a compliant hand that starts sliding after a long stick.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -200,7 +200,7 @@ impl ScenarioParams {
 
     /// Every invalid field.
     #[must_use]
-    pub fn validate(&self) -> Vec<ParamError> {
+    pub fn validate(&self) -> Vec<Problem> {
         match self {
             Self::SpidarSlide(s) => collect([
                 positive("hand_mass_kg", s.hand_mass_kg),
@@ -286,10 +286,10 @@ impl Sample {
 pub enum ScenarioError {
     /// A model parameter is invalid.
     #[error("model parameter {0}")]
-    Model(ParamError),
+    Model(Problem),
     /// A scenario parameter is invalid.
     #[error("scenario parameter {0}")]
-    Scenario(ParamError),
+    Scenario(Problem),
     /// The step rate is not a positive finite number.
     #[error("rate_hz: must be finite and greater than 0, got {0}")]
     Rate(f64),

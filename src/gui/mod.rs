@@ -282,7 +282,7 @@ impl FrictionlabApp {
                             .map_err(|errors| {
                                 errors
                                     .iter()
-                                    .map(|e| format!("{name}: {}: {}", e.path, e.message))
+                                    .map(|e| format!("{name}: {}: {}", e.place, e.message))
                                     .collect()
                             })
                     });
@@ -300,7 +300,7 @@ impl FrictionlabApp {
                     .map_err(|errors| {
                         errors
                             .iter()
-                            .map(|e| format!("{}: {}", e.path, e.message))
+                            .map(|e| format!("{}: {}", e.place, e.message))
                             .collect()
                     });
                 Ok(())

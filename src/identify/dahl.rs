@@ -5,11 +5,10 @@ use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DVector, Dyn, OMatrix, Owned, U4, VecStorage, Vector4};
 use serde::Serialize;
 
-use super::{
-    Estimate, IdentifyError, Noise, Record, count, err, finite_or_refused, fit_karnopp, noise_of,
-};
+use super::{Estimate, Noise, Record, count, finite_or_refused, fit_karnopp, noise_of};
 use crate::friction::dahl::{Dahl, DahlParams};
 use crate::friction::{ForceLimit, Input, ModelParams};
+use crate::problem::Problem;
 
 /// Dahl parameters.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -180,7 +179,7 @@ pub fn fit_dahl(
     exponent: f64,
     dv: f64,
     noise: Option<(f64, f64)>,
-) -> Result<DahlFit, IdentifyError> {
+) -> Result<DahlFit, Problem> {
     let noise = noise_of(rec, noise);
     let start = fit_karnopp(rec, dv, Some((0.0, 0.0)))?.plain_least_squares;
     let p0 = Vector4::new(
@@ -198,7 +197,7 @@ pub fn fit_dahl(
     };
     problem.set_params(&p0);
     let (mut problem, report) = LevenbergMarquardt::new().minimize(problem);
-    let singular = || err(&rec.file, "the Dahl fit's Jacobian is singular");
+    let singular = || Problem::new(&rec.file, "the Dahl fit's Jacobian is singular");
     let n = count(rec.t_s.len());
     let s = nalgebra::Matrix4::from_diagonal(&Vector4::new(
         n * noise.acceleration_sd_m_s2.powi(2),
@@ -224,7 +223,7 @@ pub fn fit_dahl(
             value: p[i],
             std_error: (s2 * cov[(i, i)]).max(0.0).sqrt(),
         };
-        Ok::<_, IdentifyError>(DahlEstimates {
+        Ok::<_, Problem>(DahlEstimates {
             mass_kg: e(0),
             fc_pos_n: e(1),
             fc_neg_n: e(2),

@@ -4,12 +4,10 @@
 use nalgebra::{SMatrix, SVector};
 use serde::Serialize;
 
-use super::{
-    Estimate, IdentifyError, MIN_PER_DIRECTION, Noise, Record, count, err, finite_or_refused,
-    noise_of,
-};
+use super::{Estimate, MIN_PER_DIRECTION, Noise, Record, count, finite_or_refused, noise_of};
 use crate::friction::ModelParams;
 use crate::friction::karnopp::KarnoppParams;
+use crate::problem::Problem;
 
 /// Karnopp-form parameters.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -81,7 +79,7 @@ pub fn fit_karnopp(
     rec: &Record,
     dv: f64,
     noise: Option<(f64, f64)>,
-) -> Result<KarnoppFit, IdentifyError> {
+) -> Result<KarnoppFit, Problem> {
     let noise = noise_of(rec, noise);
     let rows = karnopp_rows(rec, dv)?;
     let mut xtx = SMatrix::<f64, 5, 5>::zeros();
@@ -99,7 +97,7 @@ pub fn fit_karnopp(
         count(rows.neg) * noise.velocity_sd_m_s.powi(2),
     ]));
     let singular = || {
-        err(
+        Problem::new(
             &rec.file,
             "the regressors are singular (too little motion to separate mass and friction)",
         )
@@ -152,7 +150,7 @@ struct Rows {
     neg: usize,
 }
 
-fn karnopp_rows(rec: &Record, dv: f64) -> Result<Rows, IdentifyError> {
+fn karnopp_rows(rec: &Record, dv: f64) -> Result<Rows, Problem> {
     let mut rows = Vec::with_capacity(rec.v_m_s.len());
     let (mut pos, mut neg) = (0, 0);
     for i in 0..rec.v_m_s.len() {
@@ -170,7 +168,7 @@ fn karnopp_rows(rec: &Record, dv: f64) -> Result<Rows, IdentifyError> {
     }
     for (n, way) in [(pos, "+x"), (neg, "-x")] {
         if n < MIN_PER_DIRECTION {
-            return Err(err(
+            return Err(Problem::new(
                 &rec.file,
                 format!(
                     "no motion towards {way}: {n} samples faster than DV = {dv} m/s, at least {MIN_PER_DIRECTION} needed"

@@ -33,6 +33,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::friction::ModelParams;
+use crate::problem::Problem;
 
 pub use dahl::{DahlEstimates, DahlFit, dahl_model, fit_dahl};
 pub use karnopp::{KarnoppEstimates, KarnoppFit, fit_karnopp, karnopp_model};
@@ -53,23 +54,6 @@ pub const DEFAULT_DV_M_S: f64 = 0.03;
 pub const MIN_SAMPLES: usize = 50;
 /// Fewest samples moving each way.
 pub const MIN_PER_DIRECTION: usize = 20;
-
-/// A problem with the input: where and what.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{place}: {message}")]
-pub struct IdentifyError {
-    /// File, with `line:col` or column name where known; or an option.
-    pub place: String,
-    /// What is wrong.
-    pub message: String,
-}
-
-fn err(place: impl Into<String>, message: impl Into<String>) -> IdentifyError {
-    IdentifyError {
-        place: place.into(),
-        message: message.into(),
-    }
-}
 
 /// A record ready to fit.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -95,10 +79,10 @@ pub struct Record {
 /// # Errors
 /// Unreadable file, missing columns, unparsable or non-finite values (with
 /// `line:col`), time not increasing, fewer than [`MIN_SAMPLES`] rows.
-pub fn read_csv(path: &Path) -> Result<Record, IdentifyError> {
+pub fn read_csv(path: &Path) -> Result<Record, Problem> {
     let file = path.display().to_string();
-    let text =
-        std::fs::read_to_string(path).map_err(|e| err(&file, format!("cannot read: {e}")))?;
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Problem::new(&file, format!("cannot read: {e}")))?;
     parse_csv(&file, &text)
 }
 
@@ -106,21 +90,21 @@ pub fn read_csv(path: &Path) -> Result<Record, IdentifyError> {
 ///
 /// # Errors
 /// As [`read_csv`].
-pub fn parse_csv(file: &str, text: &str) -> Result<Record, IdentifyError> {
+pub fn parse_csv(file: &str, text: &str) -> Result<Record, Problem> {
     let mut lines = text.lines();
     let header: Vec<&str> = lines
         .next()
-        .ok_or_else(|| err(file, "empty file: expected a header row"))?
+        .ok_or_else(|| Problem::new(file, "empty file: expected a header row"))?
         .split(',')
         .map(str::trim)
         .collect();
     let find = |name: &str| header.iter().position(|c| *c == name);
-    let t_col = find("t_s").ok_or_else(|| err(file, "column 't_s': missing"))?;
+    let t_col = find("t_s").ok_or_else(|| Problem::new(file, "column 't_s': missing"))?;
     let (f_col, negate) = match (find("applied_force_n"), find("force_n")) {
         (Some(c), _) => (c, false),
         (None, Some(c)) => (c, true),
         (None, None) => {
-            return Err(err(
+            return Err(Problem::new(
                 file,
                 "column 'applied_force_n' (or 'force_n'): missing",
             ));
@@ -128,7 +112,7 @@ pub fn parse_csv(file: &str, text: &str) -> Result<Record, IdentifyError> {
     };
     let (x_col, v_col, a_col) = (find("x_m"), find("v_m_s"), find("a_m_s2"));
     if x_col.is_none() && v_col.is_none() {
-        return Err(err(file, "column 'v_m_s' (or 'x_m'): missing"));
+        return Err(Problem::new(file, "column 'v_m_s' (or 'x_m'): missing"));
     }
     let wanted: Vec<(usize, &str)> = [
         Some((t_col, "t_s")),
@@ -143,7 +127,7 @@ pub fn parse_csv(file: &str, text: &str) -> Result<Record, IdentifyError> {
     let mut columns = read_columns(file, lines, &wanted, header.len())?;
     let t = std::mem::take(&mut columns[t_col]);
     if t.len() < MIN_SAMPLES {
-        return Err(err(
+        return Err(Problem::new(
             file,
             format!(
                 "too few samples: {} rows, at least {MIN_SAMPLES} needed",
@@ -152,7 +136,7 @@ pub fn parse_csv(file: &str, text: &str) -> Result<Record, IdentifyError> {
         ));
     }
     if let Some(i) = t.windows(2).position(|w| w[1] <= w[0]) {
-        return Err(err(
+        return Err(Problem::new(
             format!("{file}: {}:1", i + 3),
             "column 't_s': time must increase from row to row",
         ));
@@ -185,7 +169,7 @@ pub fn parse_csv(file: &str, text: &str) -> Result<Record, IdentifyError> {
             let v = columns[vc].clone();
             (integrate(&t, &v), v)
         }
-        (None, None) => return Err(err(file, "column 'v_m_s' (or 'x_m'): missing")),
+        (None, None) => return Err(Problem::new(file, "column 'v_m_s' (or 'x_m'): missing")),
     };
     let a = if let Some(ac) = a_col {
         sources.push("acceleration: a_m_s2".into());
@@ -214,7 +198,7 @@ fn read_columns<'a>(
     lines: impl Iterator<Item = &'a str>,
     wanted: &[(usize, &str)],
     width: usize,
-) -> Result<Vec<Vec<f64>>, IdentifyError> {
+) -> Result<Vec<Vec<f64>>, Problem> {
     let mut columns: Vec<Vec<f64>> = vec![Vec::new(); width];
     for (i, line) in lines.enumerate() {
         if line.trim().is_empty() {
@@ -230,14 +214,14 @@ fn read_columns<'a>(
             let place = format!("{file}: {}:{col}", i + 2);
             let raw = fields
                 .get(c)
-                .ok_or_else(|| err(&place, format!("column '{name}': missing value")))?
+                .ok_or_else(|| Problem::new(&place, format!("column '{name}': missing value")))?
                 .trim();
             let value: f64 = raw
                 .parse()
                 .ok()
                 .filter(|v: &f64| v.is_finite())
                 .ok_or_else(|| {
-                    err(
+                    Problem::new(
                         &place,
                         format!("column '{name}': '{raw}' is not a finite number"),
                     )
@@ -343,11 +327,11 @@ impl Estimate {
 
 /// A fit whose arithmetic overflowed (values far outside any apparatus's
 /// range) is refused rather than printed as `null`s.
-fn finite_or_refused(rec: &Record, finite: bool, noise: &Noise) -> Result<(), IdentifyError> {
+fn finite_or_refused(rec: &Record, finite: bool, noise: &Noise) -> Result<(), Problem> {
     if finite && noise.velocity_sd_m_s.is_finite() && noise.acceleration_sd_m_s2.is_finite() {
         Ok(())
     } else {
-        Err(err(
+        Err(Problem::new(
             &rec.file,
             "the fit is not finite: the values overflow (are the columns in SI units: s, m, m/s, m/s^2, N?)",
         ))

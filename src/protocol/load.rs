@@ -20,33 +20,18 @@ use super::{
 use crate::friction::{
     DahlParams, GodObjectParams, KarnoppParams, ModelParams, NakanoParams, ViscousParams,
 };
-
-/// One problem in a protocol file.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{path}: {message}")]
-pub struct LoadError {
-    /// Where: a JSON path (`design.levels[2].width_m`, `$` for the whole
-    /// document) or, for a syntax error, `line:column`.
-    pub path: String,
-    /// What is wrong.
-    pub message: String,
-}
+use crate::problem::Problem;
 
 /// Parses and checks a protocol.
 ///
 /// # Errors
 /// Every problem found, each with its place.
-pub fn parse(text: &str) -> Result<Protocol, Vec<LoadError>> {
+pub fn parse(text: &str) -> Result<Protocol, Vec<Problem>> {
     let value: Value = serde_json::from_str(text).map_err(|e| {
-        vec![LoadError {
-            path: format!("{}:{}", e.line(), e.column()),
-            message: e
-                .to_string()
-                .split(" at line ")
-                .next()
-                .unwrap_or_default()
-                .to_owned(),
-        }]
+        vec![Problem::new(
+            format!("{}:{}", e.line(), e.column()),
+            e.to_string().split(" at line ").next().unwrap_or_default(),
+        )]
     })?;
     let mut w = Walk::default();
     let protocol = w.protocol(&value);
@@ -64,28 +49,20 @@ pub fn parse(text: &str) -> Result<Protocol, Vec<LoadError>> {
 }
 
 /// Reads and checks a protocol file; returns it with the file's bytes
-/// (hashed into session logs). Each error's `path` starts with the file:
+/// (hashed into session logs). Each error's `place` starts with the file:
 /// `<file>: <json path or line:col>`.
 ///
 /// # Errors
 /// The file cannot be read or is not UTF-8, or every problem [`parse`] finds.
-pub fn read(path: &std::path::Path) -> Result<(Protocol, Vec<u8>), Vec<LoadError>> {
+pub fn read(path: &std::path::Path) -> Result<(Protocol, Vec<u8>), Vec<Problem>> {
     let file = path.display().to_string();
-    let whole = |message: String| {
-        vec![LoadError {
-            path: file.clone(),
-            message,
-        }]
-    };
+    let whole = |message: String| vec![Problem::new(&file, message)];
     let bytes = std::fs::read(path).map_err(|e| whole(format!("cannot read: {e}")))?;
     let text = std::str::from_utf8(&bytes).map_err(|e| whole(format!("not UTF-8 text: {e}")))?;
     let protocol = parse(text).map_err(|errors| {
         errors
             .into_iter()
-            .map(|e| LoadError {
-                path: format!("{file}: {}", e.path),
-                message: e.message,
-            })
+            .map(|e| Problem::new(format!("{file}: {}", e.place), e.message))
             .collect::<Vec<_>>()
     })?;
     Ok((protocol, bytes))
@@ -102,7 +79,7 @@ pub fn is_valid_id(id: &str) -> bool {
 
 #[derive(Default)]
 struct Walk {
-    errors: Vec<LoadError>,
+    errors: Vec<Problem>,
 }
 
 fn join(path: &str, key: &str) -> String {
@@ -115,10 +92,7 @@ fn join(path: &str, key: &str) -> String {
 
 impl Walk {
     fn err(&mut self, path: impl Into<String>, message: impl Into<String>) {
-        self.errors.push(LoadError {
-            path: path.into(),
-            message: message.into(),
-        });
+        self.errors.push(Problem::new(path, message));
     }
 
     /// `v` as an object whose keys are all in `known`.
@@ -471,7 +445,7 @@ impl Walk {
         let errors = params.validate();
         let ok = errors.is_empty();
         for e in errors {
-            self.err(join(path, &e.field), e.message);
+            self.err(join(path, &e.place), e.message);
         }
         ok.then_some(params)
     }
@@ -489,8 +463,8 @@ fn kind_of(v: &Value) -> &'static str {
 }
 
 /// Value checks on a structurally valid protocol.
-fn check(p: &Protocol, errors: &mut Vec<LoadError>) {
-    let mut err = |path: String, message: String| errors.push(LoadError { path, message });
+fn check(p: &Protocol, errors: &mut Vec<Problem>) {
+    let mut err = |path: String, message: String| errors.push(Problem::new(path, message));
     if !is_valid_id(&p.id) {
         err(
             "id".into(),
@@ -561,7 +535,7 @@ fn check(p: &Protocol, errors: &mut Vec<LoadError>) {
                 }
                 for (j, s) in set.stimuli.iter().enumerate() {
                     for e in stimulus_model(&set.model, *s).validate() {
-                        err(format!("{path}.stimuli[{j}].{}", e.field), e.message);
+                        err(format!("{path}.stimuli[{j}].{}", e.place), e.message);
                     }
                 }
             }

@@ -28,6 +28,8 @@ mod session_log;
 use std::io;
 use std::path::Path;
 
+use crate::problem::Problem;
+
 pub use atomic::replace_file;
 pub use export::{
     COMMON_COLUMNS, data_csv, kind_columns, kinds_present, write_dataset_description,
@@ -41,14 +43,10 @@ pub use session_log::{
 /// Why a results operation failed.
 #[derive(Debug, thiserror::Error)]
 pub enum ResultsError {
-    /// Bad input from the user (exit 2): `place: message`.
-    #[error("{place}: {message}")]
-    Input {
-        /// Flag or file.
-        place: String,
-        /// What is wrong.
-        message: String,
-    },
+    /// Bad input from the user (exit 2): `place: message`, the place a flag
+    /// or file.
+    #[error("{0}")]
+    Input(Problem),
     /// An unreadable or malformed log.
     #[error("{path}: {line}:{column}: {message}")]
     Log {
@@ -69,6 +67,14 @@ pub enum ResultsError {
         /// The error.
         source: io::Error,
     },
+}
+
+impl ResultsError {
+    /// Bad input at `place` (a flag or file).
+    #[must_use]
+    pub fn input(place: impl Into<String>, message: impl Into<String>) -> Self {
+        ResultsError::Input(Problem::new(place, message))
+    }
 }
 
 fn io_err(path: &Path) -> impl FnOnce(io::Error) -> ResultsError + '_ {
