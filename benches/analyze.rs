@@ -18,9 +18,10 @@ use rand_chacha::ChaCha8Rng;
 
 const HEADER: &str = "study,kind,participant,session,trial,block,status,seed,practice,repetition,display,mu_s,mu_k,delta_mu,magnitude,response_time_s";
 
+/// Writes the data CSVs; a file that cannot be written stops the bench.
 fn generate(dir: &Path) {
     let data = dir.join("data");
-    let _ = std::fs::create_dir_all(&data);
+    std::fs::create_dir_all(&data).unwrap_or_else(|e| panic!("{}: {e}", data.display()));
     let mut rng = ChaCha8Rng::seed_from_u64(1);
     for p in 0..1000 {
         let mut text = String::from(HEADER);
@@ -38,18 +39,16 @@ fn generate(dir: &Path) {
                 mu_s - delta
             );
         }
-        let _ = std::fs::write(
-            data.join(format!("study-bench_subject-p{p}_session-1_data.csv")),
-            text,
-        );
+        let path = data.join(format!("study-bench_subject-p{p}_session-1_data.csv"));
+        std::fs::write(&path, text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     }
 }
 
 fn million(c: &mut Criterion) {
-    let Ok(dir) = tempfile::tempdir() else { return };
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("cannot create a folder: {e}"));
     generate(dir.path());
     let report = dir.path().join("report");
-    if let Ok(o) = std::process::Command::new(env!("CARGO_BIN_EXE_frictionlab"))
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_frictionlab"))
         .args([
             "analyze",
             &dir.path().to_string_lossy(),
@@ -57,18 +56,23 @@ fn million(c: &mut Criterion) {
             &report.to_string_lossy(),
         ])
         .output()
-    {
-        eprintln!(
-            "frictionlab analyze (1,000,000 trials): {}",
-            String::from_utf8_lossy(&o.stdout).trim()
-        );
-    }
+        .unwrap_or_else(|e| panic!("frictionlab analyze: cannot run: {e}"));
+    assert!(
+        o.status.success(),
+        "frictionlab analyze failed ({}): {}",
+        o.status,
+        String::from_utf8_lossy(&o.stderr).trim()
+    );
+    eprintln!(
+        "frictionlab analyze (1,000,000 trials): {}",
+        String::from_utf8_lossy(&o.stdout).trim()
+    );
     let mut group = c.benchmark_group("analyze");
     group
         .sample_size(10)
         .measurement_time(Duration::from_secs(20));
     group.bench_function("magnitude-1M-trials", |b| {
-        b.iter(|| black_box(analyze(dir.path()).is_ok()));
+        b.iter(|| black_box(analyze(dir.path()).unwrap_or_else(|e| panic!("analyze: {e}"))));
     });
     group.finish();
 }

@@ -19,42 +19,58 @@ use frictionlab::device::link::{Link, LinkState};
 use frictionlab::device::transport::Transport;
 use frictionlab::device::wire::{Message, frame};
 
-fn emulator(path: &Path) -> Option<Child> {
+/// The emulator process, stopped when dropped (also when a failed run
+/// stops the bench).
+struct Emulator(Child);
+
+impl Drop for Emulator {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// Starts the emulator on a pseudo-terminal linked at `path`; one that does
+/// not start, or links no port within 10 s, stops the bench.
+fn emulator(path: &Path) -> Emulator {
     let child = Command::new(env!("CARGO_BIN_EXE_frictionlab"))
         .args(["device-emulator", &path.to_string_lossy()])
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()
-        .ok()?;
+        .unwrap_or_else(|e| panic!("device-emulator: cannot run: {e}"));
     let start = Instant::now();
     while std::fs::read_link(path).is_err() && start.elapsed() < Duration::from_secs(10) {
         std::thread::sleep(Duration::from_millis(10));
     }
-    Some(child)
+    let emulator = Emulator(child);
+    assert!(
+        std::fs::read_link(path).is_ok(),
+        "device-emulator: no port at {} after 10 s",
+        path.display()
+    );
+    emulator
 }
 
 fn loop_timing() {
-    let Ok(dir) = tempfile::tempdir() else { return };
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("cannot create a folder: {e}"));
     let path = dir.path().join("dev");
-    let Some(mut emu) = emulator(&path) else {
-        return;
-    };
+    let _emulator = emulator(&path);
     for (rate, fifo) in [
         (1000.0, false),
         (1000.0, true),
         (5000.0, false),
         (5000.0, true),
     ] {
-        let Ok(haptic) = HapticLoop::start(
+        let haptic = HapticLoop::start(
             path.clone(),
             frictionlab::friction::StepParams {
                 rate_hz: rate,
                 ..Default::default()
             },
             fifo,
-        ) else {
-            continue;
-        };
+        )
+        .unwrap_or_else(|e| panic!("haptic loop at {rate} Hz: {e}"));
         std::thread::sleep(Duration::from_secs(10));
         let s = haptic.stop();
         eprintln!(
@@ -70,8 +86,6 @@ fn loop_timing() {
             s.resyncs
         );
     }
-    let _ = emu.kill();
-    let _ = emu.wait();
 }
 
 fn round_trip(c: &mut Criterion) {
@@ -80,11 +94,9 @@ fn round_trip(c: &mut Criterion) {
     if std::env::args().any(|a| a == "--bench") {
         loop_timing();
     }
-    let Ok(dir) = tempfile::tempdir() else { return };
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("cannot create a folder: {e}"));
     let path = dir.path().join("dev");
-    let Some(mut emu) = emulator(&path) else {
-        return;
-    };
+    let _emulator = emulator(&path);
     let mut transport = Transport::new(&path);
     let mut link = Link::new();
     let start = Instant::now();
@@ -100,6 +112,11 @@ fn round_trip(c: &mut Criterion) {
         }
         std::thread::sleep(Duration::from_millis(1));
     }
+    assert!(
+        link.state(start.elapsed().as_secs_f64()) == LinkState::Connected,
+        "device-emulator at {}: no connection after 5 s",
+        path.display()
+    );
     let mut seq = 1_000_000_u32;
     c.bench_function("device/round-trip-command-to-acked-sample", |b| {
         b.iter(|| {
@@ -117,11 +134,9 @@ fn round_trip(c: &mut Criterion) {
                     acked |= s.ack_seq == seq;
                 });
             }
-            acked
+            assert!(acked, "command {seq}: no acknowledging sample within 50 ms");
         });
     });
-    let _ = emu.kill();
-    let _ = emu.wait();
 }
 
 criterion_group!(benches, round_trip);

@@ -26,14 +26,15 @@ fn motion(n: usize, dt: f64) -> Vec<Input> {
 fn step_cost(c: &mut Criterion) {
     let mut group = c.benchmark_group("step");
     for name in ModelParams::NAMES {
-        let Some(params) = ModelParams::default_for(name) else {
-            continue;
-        };
+        let params = ModelParams::default_for(name)
+            .unwrap_or_else(|| panic!("{name}: no default parameters"));
         let dt = 1.0 / params.loop_rate_hz();
         let inputs = motion(10_000, dt);
-        let Ok(mut model) = Friction::new(&params, ForceLimit::default(), 0.0) else {
-            continue;
-        };
+        let mut model =
+            Friction::new(&params, ForceLimit::default(), 0.0).unwrap_or_else(|errors| {
+                let errors: Vec<String> = errors.iter().map(ToString::to_string).collect();
+                panic!("{name}: {}", errors.join("; "))
+            });
         let mut i = 0;
         group.bench_function(name, |b| {
             b.iter(|| {

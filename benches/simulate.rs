@@ -13,14 +13,15 @@ use frictionlab::protocol::load::parse;
 use frictionlab::results::ResultsDir;
 use frictionlab::session::{Simulation, simulate_participants};
 
-/// Runs the study into a fresh folder under `root`; returns simulated seconds.
+/// Runs the study into a fresh folder under `root`; returns simulated
+/// seconds. A run that fails stops the bench with its error.
 fn study(text: &str, root: &std::path::Path, jobs: usize) -> f64 {
-    let Ok(protocol) = parse(text) else {
-        return 0.0;
-    };
-    let Ok(dir) = tempfile::tempdir_in(root) else {
-        return 0.0;
-    };
+    let protocol = parse(text).unwrap_or_else(|errors| {
+        let errors: Vec<String> = errors.iter().map(ToString::to_string).collect();
+        panic!("protocol: {}", errors.join("; "))
+    });
+    let dir = tempfile::tempdir_in(root)
+        .unwrap_or_else(|e| panic!("{}: cannot create a folder: {e}", root.display()));
     simulate_participants(
         &ResultsDir::new(dir.path()),
         &Simulation {
@@ -34,7 +35,10 @@ fn study(text: &str, root: &std::path::Path, jobs: usize) -> f64 {
         },
         &|_| {},
     )
-    .map_or(0.0, |outcomes| outcomes.iter().map(|o| o.simulated_s).sum())
+    .unwrap_or_else(|e| panic!("simulate: {e}"))
+    .iter()
+    .map(|o| o.simulated_s)
+    .sum()
 }
 
 fn simulate(c: &mut Criterion) {
@@ -42,7 +46,7 @@ fn simulate(c: &mut Criterion) {
         env!("CARGO_MANIFEST_DIR"),
         "/protocols/magnitude-estimation.json"
     );
-    let text = std::fs::read_to_string(path).unwrap_or_default();
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{path}: {e}"));
     let mut group = c.benchmark_group("simulate");
     group
         .sample_size(10)
@@ -71,6 +75,7 @@ fn simulate(c: &mut Criterion) {
         ),
     ] {
         if !root.is_dir() {
+            eprintln!("{name}: skipped, {} is not a folder here", root.display());
             continue;
         }
         let simulated = study(&text, &root, jobs);

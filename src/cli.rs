@@ -7,13 +7,16 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
-use crate::friction::{ForceLimit, ModelParams, ParamError};
+use crate::friction::{ForceLimit, ModelParams};
 use crate::protocol::{Protocol, load};
 use crate::render;
 use crate::results::{self, ResultsError};
+// A problem with the user's input is the library's one `Problem`, printed by
+// `finish` as `error: <place>: <message>`.
+use crate::problem::Problem as UserError;
 use crate::scenario::{self, ScenarioError, ScenarioParams};
 use crate::session::{self, DeviceChoice, SessionError};
-use crate::settings::{self, SetError};
+use crate::settings;
 
 /// `--device`: `sim` (the simulated apparatus) or a serial port's path.
 /// Whether the path is a port is checked with the other options
@@ -236,30 +239,6 @@ struct RenderArgs {
     plot: Option<PathBuf>,
 }
 
-/// A problem with the user's input: printed as `error: <place>: <message>`.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct UserError {
-    /// The flag or file, with the place inside it (`--set mu_s`).
-    pub place: String,
-    /// What is wrong.
-    pub message: String,
-}
-
-impl UserError {
-    fn new(place: impl Into<String>, message: impl Into<String>) -> Self {
-        UserError {
-            place: place.into(),
-            message: message.into(),
-        }
-    }
-}
-
-impl std::fmt::Display for UserError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "error: {}: {}", self.place, self.message)
-    }
-}
-
 /// Runs the command line and returns the process exit code.
 #[must_use]
 pub fn main() -> ExitCode {
@@ -308,7 +287,7 @@ fn finish(result: Result<(), Failure>) -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(failure) => {
             for e in failure.errors {
-                say(&e.to_string());
+                say(&format!("error: {e}"));
             }
             ExitCode::from(failure.code)
         }
@@ -373,7 +352,7 @@ impl From<SessionError> for Failure {
 impl From<ResultsError> for Failure {
     fn from(e: ResultsError) -> Self {
         match e {
-            ResultsError::Input { place, message } => vec![UserError::new(place, message)].into(),
+            ResultsError::Input(problem) => vec![problem].into(),
             ResultsError::Log {
                 path,
                 line,
@@ -390,12 +369,7 @@ impl From<ResultsError> for Failure {
 
 /// Reads and checks a protocol file.
 fn load_protocol(path: &Path) -> Result<(Protocol, Vec<u8>), Vec<UserError>> {
-    load::read(path).map_err(|errors| {
-        errors
-            .into_iter()
-            .map(|e| UserError::new(e.path, e.message))
-            .collect()
-    })
+    load::read(path)
 }
 
 fn validate_command(paths: &[PathBuf]) -> Result<(), Failure> {
@@ -423,8 +397,7 @@ fn validate_command(paths: &[PathBuf]) -> Result<(), Failure> {
 }
 
 fn analyze_command(dir: &Path, out: Option<&Path>) -> Result<(), Failure> {
-    let analysis = crate::analysis::analyze(dir)
-        .map_err(|e| Failure::from(vec![UserError::new(e.place, e.message)]))?;
+    let analysis = crate::analysis::analyze(dir).map_err(|e| Failure::from(vec![e]))?;
     let out = out.map_or_else(|| dir.join("report"), Path::to_path_buf);
     crate::analysis::write(&analysis, &out).map_err(|(path, message)| Failure {
         code: EXIT_FAILURE,
@@ -503,8 +476,7 @@ fn identify_command(args: &IdentifyArgs) -> Result<(), Failure> {
     if !errors.is_empty() {
         return Err(errors.into());
     }
-    let failure =
-        |e: identify::IdentifyError| -> Failure { vec![UserError::new(e.place, e.message)].into() };
+    let failure = |e: UserError| -> Failure { vec![e].into() };
     let record = identify::read_csv(&args.data).map_err(failure)?;
     let file = args.data.display().to_string();
     let json = if args.model == "karnopp" {
@@ -816,8 +788,8 @@ fn render_command(args: &RenderArgs) -> Result<(), Failure> {
     let plan = render_plan(&args.model, &args.scenario, &args.set)?;
     let samples = scenario::run(&plan.model, &plan.scenario, plan.settings).map_err(|e| {
         vec![match e {
-            ScenarioError::Model(p) => param_error("", &p),
-            ScenarioError::Scenario(p) => param_error("scenario.", &p),
+            ScenarioError::Model(p) => set_error("", p),
+            ScenarioError::Scenario(p) => set_error("scenario.", p),
             ScenarioError::Rate(r) => UserError::new(
                 "--set rate_hz",
                 format!("must be finite and greater than 0, got {r}"),
@@ -855,12 +827,9 @@ fn render_command(args: &RenderArgs) -> Result<(), Failure> {
     ))
 }
 
-fn param_error(prefix: &str, p: &ParamError) -> UserError {
-    UserError::new(format!("--set {prefix}{}", p.field), p.message.clone())
-}
-
-fn set_error(prefix: &str, e: SetError) -> UserError {
-    UserError::new(format!("--set {prefix}{}", e.name), e.message)
+/// A parameter's problem as one of `--set`'s: `--set <prefix><place>`.
+fn set_error(prefix: &str, e: UserError) -> UserError {
+    UserError::new(format!("--set {prefix}{}", e.place), e.message)
 }
 
 /// Resolves the model, the scenario and every `--set`, reporting every error.
@@ -914,7 +883,7 @@ fn render_plan(model: &str, scenario: &str, sets: &[String]) -> Result<RenderPla
     let limit = match ForceLimit::new(limit_n.unwrap_or(crate::friction::DEFAULT_FORCE_LIMIT_N)) {
         Ok(l) => Some(l),
         Err(e) => {
-            errors.push(param_error("", &e));
+            errors.push(set_error("", e));
             None
         }
     };
@@ -925,7 +894,7 @@ fn render_plan(model: &str, scenario: &str, sets: &[String]) -> Result<RenderPla
         model
     });
     if let Some(m) = &model {
-        errors.extend(m.validate().iter().map(|p| param_error("", p)));
+        errors.extend(m.validate().into_iter().map(|p| set_error("", p)));
     }
     let scenario = scenario_base.and_then(|base| {
         let what = format!("scenario {}", base.name());
@@ -934,7 +903,7 @@ fn render_plan(model: &str, scenario: &str, sets: &[String]) -> Result<RenderPla
         scenario
     });
     if let Some(s) = &scenario {
-        errors.extend(s.validate().iter().map(|p| param_error("scenario.", p)));
+        errors.extend(s.validate().into_iter().map(|p| set_error("scenario.", p)));
     }
     match (model, scenario, limit) {
         (Some(model), Some(scenario), Some(limit)) if errors.is_empty() => {

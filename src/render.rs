@@ -1,13 +1,14 @@
 //! Output of `frictionlab render`: the time-series CSV and its SVG figure.
-//! Files are written whole or not at all (written beside the target, then
-//! renamed over it).
+//! Files are written whole or not at all, by the results' one atomic write
+//! ([`crate::results::replace_file`]).
 
 use std::fmt::Write as _;
-use std::io::{self, Write};
+use std::io;
 use std::path::Path;
 
 use plotters::prelude::*;
 
+use crate::results::ResultsError;
 use crate::scenario::Sample;
 
 /// The CSV columns, in order; `vibration` only for tactile models,
@@ -53,36 +54,16 @@ pub fn csv(samples: &[Sample], vibration: bool) -> String {
     out
 }
 
-/// Writes `contents` to `path` atomically: a temporary file in the same
-/// folder, flushed to disk, then renamed over `path`. Creates missing parent
-/// folders.
+/// Writes `contents` to `path` atomically and durably, by
+/// [`crate::results::replace_file`]. Creates missing parent folders.
 ///
 /// # Errors
-/// Any I/O error; `path` is then untouched.
+/// The I/O error; `path` is then untouched.
 pub fn write_atomically(path: &Path, contents: &[u8]) -> io::Result<()> {
-    let parent = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    std::fs::create_dir_all(parent)?;
-    let name = path
-        .file_name()
-        .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "not a file name"))?;
-    let tmp = parent.join(format!(
-        ".{}.{}.partial",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(contents)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    crate::results::replace_file(path, contents, true).map_err(|e| match e {
+        ResultsError::Io { source, .. } => source,
+        other => io::Error::other(other.to_string()),
+    })
 }
 
 /// An SVG figure over time of the force, the vibration (tactile models) and

@@ -29,10 +29,10 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::friction::{
-    Friction, Input, ModelParams, Output, ParamError, Phase, StepParams, collect, non_negative,
-    positive,
+    Friction, Input, ModelParams, Output, Phase, StepParams, collect, non_negative, positive,
 };
 use crate::hand::{Hand, HandDrive};
+use crate::problem::Problem;
 
 /// Seed 000's slide: a compliant hand that starts sliding after a long stick.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -201,7 +201,7 @@ impl ScenarioParams {
 
     /// Every invalid field.
     #[must_use]
-    pub fn validate(&self) -> Vec<ParamError> {
+    pub fn validate(&self) -> Vec<Problem> {
         match self {
             Self::SpidarSlide(s) => collect([
                 positive("hand_mass_kg", s.hand_mass_kg),
@@ -278,10 +278,10 @@ impl Sample {
 pub enum ScenarioError {
     /// A model parameter is invalid.
     #[error("model parameter {0}")]
-    Model(ParamError),
+    Model(Problem),
     /// A scenario parameter is invalid.
     #[error("scenario parameter {0}")]
-    Scenario(ParamError),
+    Scenario(Problem),
     /// The step rate is not a positive finite number.
     #[error("rate_hz: must be finite and greater than 0, got {0}")]
     Rate(f64),

@@ -8,27 +8,16 @@
 use serde::{Serialize, de::DeserializeOwned};
 use serde_json::Value;
 
-/// Why an override could not be applied; `name` is the setting as given.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{name}: {message}")]
-pub struct SetError {
-    /// The setting's name, as given or resolved to its full path.
-    pub name: String,
-    /// What is wrong.
-    pub message: String,
-}
+use crate::problem::Problem;
 
 /// Splits `NAME=VALUE`.
 ///
 /// # Errors
 /// When there is no `=` or the name is empty.
-pub fn split_setting(text: &str) -> Result<(&str, &str), SetError> {
+pub fn split_setting(text: &str) -> Result<(&str, &str), Problem> {
     match text.split_once('=') {
         Some((name, value)) if !name.trim().is_empty() => Ok((name.trim(), value.trim())),
-        _ => Err(SetError {
-            name: text.to_owned(),
-            message: "expected NAME=VALUE".to_owned(),
-        }),
+        _ => Err(Problem::new(text, "expected NAME=VALUE")),
     }
 }
 
@@ -65,13 +54,14 @@ pub fn leaf_paths(value: &Value, tag: &str) -> Vec<String> {
 ///
 /// # Errors
 /// Unknown or ambiguous names, values that are not finite numbers of the
-/// field's kind, and anything serde refuses.
+/// field's kind, and anything serde refuses. Each problem's place is the
+/// setting's name as given, or `what` for what serde refuses.
 pub fn apply<T: Serialize + DeserializeOwned>(
     base: &T,
     tag: &str,
     what: &str,
     overrides: &[(&str, &str)],
-) -> Result<T, Vec<SetError>> {
+) -> Result<T, Vec<Problem>> {
     match apply_all(base, tag, what, overrides) {
         (Some(value), errors) if errors.is_empty() => Ok(value),
         (_, errors) => Err(errors),
@@ -86,11 +76,8 @@ pub fn apply_all<T: Serialize + DeserializeOwned>(
     tag: &str,
     what: &str,
     overrides: &[(&str, &str)],
-) -> (Option<T>, Vec<SetError>) {
-    let whole = |message: String| SetError {
-        name: what.to_owned(),
-        message,
-    };
+) -> (Option<T>, Vec<Problem>) {
+    let whole = |message: String| Problem::new(what, message);
     let mut value = match serde_json::to_value(base) {
         Ok(v) => v,
         Err(e) => return (None, vec![whole(e.to_string())]),
@@ -101,10 +88,7 @@ pub fn apply_all<T: Serialize + DeserializeOwned>(
         if let Err(message) =
             resolve(&paths, name, what).and_then(|path| set(&mut value, &path, text))
         {
-            errors.push(SetError {
-                name: name.to_owned(),
-                message,
-            });
+            errors.push(Problem::new(name, message));
         }
     }
     match serde_json::from_value(value) {
@@ -205,7 +189,7 @@ mod tests {
             let errors =
                 apply(&params("stick-slip-force"), "model", "m", &[(name, value)]).unwrap_err();
             assert_eq!(errors.len(), 1);
-            assert_eq!(errors[0].name, name);
+            assert_eq!(errors[0].place, name);
             assert!(
                 errors[0].message.starts_with(message),
                 "{name}={value}: {errors:?}"

@@ -226,7 +226,7 @@ fn invalid_parameters_are_named_with_a_reason() {
     for (name, sets, field, message) in cases {
         let errors = model(name, &sets).validate();
         assert_eq!(errors.len(), 1, "{name}: {errors:?}");
-        assert_eq!(errors[0].field, field);
+        assert_eq!(errors[0].place, field);
         assert!(
             errors[0].message.contains(message),
             "{name}: {}",

@@ -14,7 +14,8 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::process::Command;
 
-use frictionlab::protocol::load::{LoadError, parse};
+use frictionlab::problem::Problem as LoadError;
+use frictionlab::protocol::load::parse;
 use frictionlab::protocol::plan::{TrialSpec, resolve};
 use frictionlab::protocol::{Design, Protocol, Randomization, json_schema};
 use proptest::prelude::*;
@@ -143,13 +144,13 @@ fn fitts_broken(edit: impl FnOnce(&mut Value)) -> Vec<LoadError> {
 fn has(errors: &[LoadError], path: &str, needle: &str) -> bool {
     errors
         .iter()
-        .any(|e| e.path == path && e.message.contains(needle))
+        .any(|e| e.place == path && e.message.contains(needle))
 }
 
 #[test]
 fn broken_protocols_name_the_json_path_and_reason() {
     let e = parse("{\"id\": \"x\",\n  \"title\": }").unwrap_err();
-    assert_eq!(e[0].path, "2:12", "syntax errors give line:column: {e:?}");
+    assert_eq!(e[0].place, "2:12", "syntax errors give line:column: {e:?}");
 
     let e = broken(|v| v["repetitions"] = json!("two"));
     assert!(
@@ -228,7 +229,7 @@ fn every_error_is_reported_at_once() {
         v["design"]["sets"][0]["model"]["mu_s"] = json!(0.1);
         v["design"]["sets"][1]["stimuli"][0]["mu_s"] = json!("high");
     });
-    let paths: BTreeSet<&str> = e.iter().map(|e| e.path.as_str()).collect();
+    let paths: BTreeSet<&str> = e.iter().map(|e| e.place.as_str()).collect();
     assert_eq!(
         paths,
         BTreeSet::from([

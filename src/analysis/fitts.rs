@@ -20,7 +20,8 @@ use std::collections::BTreeMap;
 use serde_json::{Value, json};
 
 use super::stats::{effective_throughput, linear_fit, mean};
-use super::{AnalysisError, Cell, Rows, Table, num, opt, text};
+use super::{Cell, Rows, Table, num, opt, text};
+use crate::problem::Problem;
 
 /// One completed test.
 #[derive(Debug, Clone, PartialEq)]
@@ -72,7 +73,7 @@ pub struct Fitts {
     pub mt_by_id: Vec<MtById>,
 }
 
-fn tests(rows: &Rows) -> Result<Vec<Test>, AnalysisError> {
+fn tests(rows: &Rows) -> Result<Vec<Test>, Problem> {
     (0..rows.len())
         .map(|i| {
             let times = rows.list("tap_times_s", i)?;
@@ -265,7 +266,7 @@ fn regressions(
 ///
 /// # Errors
 /// A value that is not a number.
-pub fn analyze(rows: &Rows) -> Result<Fitts, AnalysisError> {
+pub fn analyze(rows: &Rows) -> Result<Fitts, Problem> {
     let tests = tests(rows)?;
     let mut notes = Vec::new();
     let mut conditions = sorted_unique(tests.iter().map(|t| t.condition.clone()).collect());

@@ -23,7 +23,8 @@ use std::collections::HashMap;
 use serde_json::{Value, json};
 
 use super::stats::{geometric_mean, linear_fit, pearson};
-use super::{AnalysisError, Cell, Rows, Table, num, opt, text};
+use super::{Cell, Rows, Table, num, opt, text};
+use crate::problem::Problem;
 
 /// One stimulus's normalized geometric mean.
 #[derive(Debug, Clone, PartialEq)]
@@ -76,7 +77,7 @@ struct Answers {
 }
 
 /// Parses and checks the rows.
-fn answers(rows: &Rows) -> Result<Answers, AnalysisError> {
+fn answers(rows: &Rows) -> Result<Answers, Problem> {
     let magnitude = rows.numbers("magnitude")?;
     if let Some(bad) = magnitude.iter().find(|m| **m <= 0.0) {
         let i = magnitude.iter().position(|m| m == bad).unwrap_or(0);
@@ -284,7 +285,7 @@ fn columns(names: &[&str]) -> Vec<String> {
 ///
 /// # Errors
 /// A magnitude or coefficient that is not a number, or a magnitude <= 0.
-pub fn analyze(rows: &Rows, order: &[String]) -> Result<Magnitude, AnalysisError> {
+pub fn analyze(rows: &Rows, order: &[String]) -> Result<Magnitude, Problem> {
     let answers = answers(rows)?;
     let mut notes = Vec::new();
     if answers.ln.is_empty() {

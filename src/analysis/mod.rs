@@ -11,7 +11,8 @@
 //! Statistics that cannot be computed (one display only, too few points)
 //! are `null` in `summary.json`, with the reason in `notes`. Input that
 //! cannot be analysed at all (no data files, missing columns, non-numeric or
-//! non-positive magnitudes) is an [`AnalysisError`].
+//! non-positive magnitudes) is a [`Problem`] naming the file (with
+//! `line:column` when known) or folder.
 
 pub mod fitts;
 pub mod magnitude;
@@ -25,26 +26,8 @@ use std::path::{Path, PathBuf};
 use polars::prelude::*;
 use serde_json::{Value, json};
 
+use crate::problem::Problem;
 use crate::results::{COMMON_COLUMNS, ResultsDir, kind_columns};
-
-/// Input that cannot be analysed: printed as `error: <place>: <message>`.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{place}: {message}")]
-pub struct AnalysisError {
-    /// File (with `line:column` when known) or folder.
-    pub place: String,
-    /// What is wrong.
-    pub message: String,
-}
-
-impl AnalysisError {
-    fn new(place: impl Into<String>, message: impl Into<String>) -> Self {
-        AnalysisError {
-            place: place.into(),
-            message: message.into(),
-        }
-    }
-}
 
 /// One output table: named columns of cells, written as CSV and Parquet.
 #[derive(Debug, Clone, PartialEq)]
@@ -201,7 +184,7 @@ impl Rows {
     ///
     /// # Errors
     /// The first value that is not a finite number, with its file and line.
-    pub fn numbers(&self, column: &str) -> Result<Vec<f64>, AnalysisError> {
+    pub fn numbers(&self, column: &str) -> Result<Vec<f64>, Problem> {
         let Some(c) = self.column(column) else {
             return Ok(Vec::new());
         };
@@ -245,7 +228,7 @@ impl Rows {
     ///
     /// # Errors
     /// The value is not a finite number.
-    pub fn number(&self, column: &str, row: usize) -> Result<f64, AnalysisError> {
+    pub fn number(&self, column: &str, row: usize) -> Result<f64, Problem> {
         let t = self.text(column, row);
         match t.trim().parse::<f64>() {
             Ok(x) if x.is_finite() => Ok(x),
@@ -257,7 +240,7 @@ impl Rows {
     ///
     /// # Errors
     /// A non-empty value that is not a finite number.
-    pub fn optional(&self, column: &str, row: usize) -> Result<Option<f64>, AnalysisError> {
+    pub fn optional(&self, column: &str, row: usize) -> Result<Option<f64>, Problem> {
         if self.text(column, row).trim().is_empty() {
             Ok(None)
         } else {
@@ -269,7 +252,7 @@ impl Rows {
     ///
     /// # Errors
     /// An element that is not a finite number.
-    pub fn list(&self, column: &str, row: usize) -> Result<Vec<f64>, AnalysisError> {
+    pub fn list(&self, column: &str, row: usize) -> Result<Vec<f64>, Problem> {
         let t = self.text(column, row);
         if t.trim().is_empty() {
             return Ok(Vec::new());
@@ -288,17 +271,17 @@ impl Rows {
 
     /// An error about the value of `column` at `row`.
     #[must_use]
-    pub fn error(&self, column: &str, row: usize, message: &str) -> AnalysisError {
+    pub fn error(&self, column: &str, row: usize, message: &str) -> Problem {
         self.error_at(column, self.text(column, row), message)
     }
 
     /// An error placed at the first analysed row (completed, non-practice)
     /// whose `column` holds `value`; found by reading the files again, only
     /// on this error path.
-    fn error_at(&self, column: &str, value: &str, message: &str) -> AnalysisError {
+    fn error_at(&self, column: &str, value: &str, message: &str) -> Problem {
         for file in &self.files {
             if let Some((line, col)) = locate(file, column, value) {
-                return AnalysisError::new(
+                return Problem::new(
                     format!("{}: {line}:{col}", file.display()),
                     format!("{column}: {message}"),
                 );
@@ -309,7 +292,7 @@ impl Rows {
             .first()
             .map(|f| f.display().to_string())
             .unwrap_or_default();
-        AnalysisError::new(place, format!("{column}: {message}"))
+        Problem::new(place, format!("{column}: {message}"))
     }
 }
 
@@ -384,11 +367,11 @@ fn needed(kind: crate::protocol::Kind) -> Vec<&'static str> {
 /// # Errors
 /// No data files, a file whose kind cannot be told, missing columns, or a
 /// CSV polars cannot read.
-pub fn load(dir: &Path) -> Result<BTreeMap<&'static str, Rows>, AnalysisError> {
+pub fn load(dir: &Path) -> Result<BTreeMap<&'static str, Rows>, Problem> {
     use crate::protocol::Kind;
     let files = data_files(dir);
     if files.is_empty() {
-        return Err(AnalysisError::new(
+        return Err(Problem::new(
             dir.display().to_string(),
             "no data files (expected data/*_data.csv, as written by frictionlab run or simulate)",
         ));
@@ -397,7 +380,7 @@ pub fn load(dir: &Path) -> Result<BTreeMap<&'static str, Rows>, AnalysisError> {
     for file in &files {
         let name = file.display().to_string();
         let header = std::fs::read_to_string(file)
-            .map_err(|e| AnalysisError::new(&name, format!("cannot read: {e}")))?
+            .map_err(|e| Problem::new(&name, format!("cannot read: {e}")))?
             .lines()
             .next()
             .map(|l| l.split(',').map(str::to_owned).collect::<Vec<_>>())
@@ -410,14 +393,14 @@ pub fn load(dir: &Path) -> Result<BTreeMap<&'static str, Rows>, AnalysisError> {
         } else if has("id_bits") {
             Kind::Fitts
         } else {
-            return Err(AnalysisError::new(
+            return Err(Problem::new(
                 format!("{name}: 1:1"),
                 "cannot tell the kind of session: none of the columns display, choice, id_bits",
             ));
         };
         for c in COMMON_COLUMNS.iter().copied().chain(needed(kind)) {
             if !has(c) {
-                return Err(AnalysisError::new(
+                return Err(Problem::new(
                     format!("{name}: 1:1"),
                     format!("missing column '{c}'"),
                 ));
@@ -438,12 +421,12 @@ pub fn load(dir: &Path) -> Result<BTreeMap<&'static str, Rows>, AnalysisError> {
 
 /// Lazily scans `paths` (all columns as text), keeps completed non-practice
 /// rows and the `columns` asked for.
-fn scan(paths: &[PathBuf], columns: &[&str]) -> Result<Rows, AnalysisError> {
+fn scan(paths: &[PathBuf], columns: &[&str]) -> Result<Rows, Problem> {
     let place = paths
         .first()
         .map(|p| p.display().to_string())
         .unwrap_or_default();
-    let fail = |e: PolarsError| AnalysisError::new(&place, format!("cannot read the CSV: {e}"));
+    let fail = |e: PolarsError| Problem::new(&place, format!("cannot read the CSV: {e}"));
     let sources: Vec<PlRefPath> = paths
         .iter()
         .map(|p| PlRefPath::from(p.to_string_lossy().as_ref()))
@@ -470,7 +453,7 @@ fn scan(paths: &[PathBuf], columns: &[&str]) -> Result<Rows, AnalysisError> {
 ///
 /// # Errors
 /// Input that cannot be analysed.
-pub fn analyze(dir: &Path) -> Result<Analysis, AnalysisError> {
+pub fn analyze(dir: &Path) -> Result<Analysis, Problem> {
     let data = load(dir)?;
     let mut summary = serde_json::Map::new();
     let mut tables = Vec::new();

@@ -11,7 +11,8 @@ use std::collections::BTreeMap;
 use serde_json::{Value, json};
 
 use super::stats::binomial_two_sided;
-use super::{AnalysisError, Rows, Table, num, opt, text};
+use super::{Rows, Table, num, opt, text};
+use crate::problem::Problem;
 
 /// The paired-comparison results.
 #[derive(Debug, Clone)]
@@ -30,7 +31,7 @@ pub struct Paired {
 ///
 /// # Errors
 /// A `choice` that is not `first`, `second` or `no_difference`.
-pub fn analyze(rows: &Rows) -> Result<Paired, AnalysisError> {
+pub fn analyze(rows: &Rows) -> Result<Paired, Problem> {
     let mut counts: BTreeMap<String, u64> = BTreeMap::new();
     let (mut no_difference, mut first, mut second) = (0_u64, 0_u64, 0_u64);
     for i in 0..rows.len() {

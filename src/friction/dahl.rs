@@ -31,7 +31,8 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::{ForceLimit, Input, Output, ParamError, Phase, collect, non_negative, positive, sign};
+use super::{ForceLimit, Input, Output, Phase, collect, non_negative, positive, sign};
+use crate::problem::Problem;
 
 /// Parameters of the Dahl model.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -67,7 +68,7 @@ impl Default for DahlParams {
 impl DahlParams {
     /// Every invalid field.
     #[must_use]
-    pub fn validate(&self) -> Vec<ParamError> {
+    pub fn validate(&self) -> Vec<Problem> {
         let mut errors = collect([
             positive("sigma_n_m", self.sigma_n_m),
             positive("fc_pos_n", self.fc_pos_n),
@@ -77,7 +78,7 @@ impl DahlParams {
             positive("slip_fraction", self.slip_fraction),
         ]);
         if self.slip_fraction > 1.0 {
-            errors.push(ParamError::new(
+            errors.push(Problem::new(
                 "slip_fraction",
                 format!("must be at most 1, got {}", self.slip_fraction),
             ));

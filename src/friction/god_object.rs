@@ -35,9 +35,8 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::{
-    ForceLimit, Input, Output, ParamError, Phase, collect, exceeds, non_negative, positive, sign,
-};
+use super::{ForceLimit, Input, Output, Phase, collect, exceeds, non_negative, positive, sign};
+use crate::problem::Problem;
 
 /// How the static coefficient behaves during a stick phase.
 pub trait StaticFrictionLaw: Copy {
@@ -46,7 +45,7 @@ pub trait StaticFrictionLaw: Copy {
     /// Dynamic (sliding) coefficient.
     fn mu_d(&self) -> f64;
     /// Every invalid field.
-    fn validate(&self) -> Vec<ParamError>;
+    fn validate(&self) -> Vec<Problem>;
 }
 
 /// Constant coefficients. Seed 000's comparison condition: mu_s 1.0, mu_d 0.6.
@@ -75,7 +74,7 @@ impl StaticFrictionLaw for ConstantStatic {
     fn mu_d(&self) -> f64 {
         self.mu_d
     }
-    fn validate(&self) -> Vec<ParamError> {
+    fn validate(&self) -> Vec<Problem> {
         let mut errors = collect([
             non_negative("mu_s", self.mu_s),
             non_negative("mu_d", self.mu_d),
@@ -119,7 +118,7 @@ impl StaticFrictionLaw for TimeVaryingStatic {
     fn mu_d(&self) -> f64 {
         self.mu_d
     }
-    fn validate(&self) -> Vec<ParamError> {
+    fn validate(&self) -> Vec<Problem> {
         collect([
             non_negative("mu_d", self.mu_d),
             positive("b", self.b),
@@ -182,7 +181,7 @@ impl<L: Default> Default for GodObjectParams<L> {
 impl<L: StaticFrictionLaw> GodObjectParams<L> {
     /// Every invalid field.
     #[must_use]
-    pub fn validate(&self) -> Vec<ParamError> {
+    pub fn validate(&self) -> Vec<Problem> {
         let mut errors = collect([
             positive("proxy_mass_kg", self.proxy_mass_kg),
             positive("coupling_stiffness_n_m", self.coupling_stiffness_n_m),

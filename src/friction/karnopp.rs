@@ -41,9 +41,8 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::{
-    ForceLimit, Input, Output, ParamError, Phase, collect, exceeds, non_negative, positive, sign,
-};
+use super::{ForceLimit, Input, Output, Phase, collect, exceeds, non_negative, positive, sign};
+use crate::problem::Problem;
 
 /// Parameters of the modified Karnopp model and its virtual coupling.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -85,7 +84,7 @@ impl Default for KarnoppParams {
 impl KarnoppParams {
     /// Every invalid field.
     #[must_use]
-    pub fn validate(&self) -> Vec<ParamError> {
+    pub fn validate(&self) -> Vec<Problem> {
         let mut errors = collect([
             positive("block_mass_kg", self.block_mass_kg),
             non_negative("coupling_stiffness_n_m", self.coupling_stiffness_n_m),

@@ -35,6 +35,8 @@ pub mod viscous;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use crate::problem::Problem;
+
 pub use dahl::{Dahl, DahlParams};
 pub use god_object::{
     ConstantStatic, GodObject, GodObjectParams, StaticFrictionLaw, TimeVaryingStatic,
@@ -112,7 +114,7 @@ impl ForceLimit {
     ///
     /// # Errors
     /// If `limit_n` is not finite and positive.
-    pub fn new(limit_n: f64) -> Result<Self, ParamError> {
+    pub fn new(limit_n: f64) -> Result<Self, Problem> {
         positive("force_limit_n", limit_n)?;
         Ok(ForceLimit(limit_n))
     }
@@ -182,60 +184,28 @@ impl StepParams {
     }
 }
 
-/// An invalid model parameter: which one, and why.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{field}: {message}")]
-pub struct ParamError {
-    /// Field name, relative to the model's parameter object (`mu_s`,
-    /// `static_friction.mu_d`).
-    pub field: String,
-    /// What is wrong, for a person.
-    pub message: String,
-}
-
-impl ParamError {
-    /// An error for `field`.
-    #[must_use]
-    pub fn new(field: impl Into<String>, message: impl Into<String>) -> Self {
-        ParamError {
-            field: field.into(),
-            message: message.into(),
-        }
-    }
-
-    /// The same error with `prefix.` put before the field name.
-    #[must_use]
-    pub fn within(mut self, prefix: &str) -> Self {
-        self.field = format!("{prefix}.{}", self.field);
-        self
-    }
-}
-
 /// Checks that `value` is finite.
 ///
 /// # Errors
-/// A [`ParamError`] naming `field` otherwise.
-pub fn finite(field: &str, value: f64) -> Result<(), ParamError> {
+/// A [`Problem`] naming `field` otherwise.
+pub fn finite(field: &str, value: f64) -> Result<(), Problem> {
     if value.is_finite() {
         Ok(())
     } else {
-        Err(ParamError::new(
-            field,
-            format!("must be finite, got {value}"),
-        ))
+        Err(Problem::new(field, format!("must be finite, got {value}")))
     }
 }
 
 /// Checks that `value` is finite and greater than zero.
 ///
 /// # Errors
-/// A [`ParamError`] naming `field` otherwise.
-pub fn positive(field: &str, value: f64) -> Result<(), ParamError> {
+/// A [`Problem`] naming `field` otherwise.
+pub fn positive(field: &str, value: f64) -> Result<(), Problem> {
     finite(field, value)?;
     if value > 0.0 {
         Ok(())
     } else {
-        Err(ParamError::new(
+        Err(Problem::new(
             field,
             format!("must be greater than 0, got {value}"),
         ))
@@ -245,13 +215,13 @@ pub fn positive(field: &str, value: f64) -> Result<(), ParamError> {
 /// Checks that `value` is finite and not negative.
 ///
 /// # Errors
-/// A [`ParamError`] naming `field` otherwise.
-pub fn non_negative(field: &str, value: f64) -> Result<(), ParamError> {
+/// A [`Problem`] naming `field` otherwise.
+pub fn non_negative(field: &str, value: f64) -> Result<(), Problem> {
     finite(field, value)?;
     if value >= 0.0 {
         Ok(())
     } else {
-        Err(ParamError::new(
+        Err(Problem::new(
             field,
             format!("must not be negative, got {value}"),
         ))
@@ -262,14 +232,14 @@ pub fn non_negative(field: &str, value: f64) -> Result<(), ParamError> {
 /// `other_field`), or at least equal to it when `allow_equal`.
 ///
 /// # Errors
-/// A [`ParamError`] naming `field` otherwise.
+/// A [`Problem`] naming `field` otherwise.
 pub fn exceeds(
     field: &str,
     value: f64,
     other_field: &str,
     other: f64,
     allow_equal: bool,
-) -> Result<(), ParamError> {
+) -> Result<(), Problem> {
     if value > other || (allow_equal && value == other) {
         return Ok(());
     }
@@ -278,14 +248,14 @@ pub fn exceeds(
     } else {
         "must be greater than"
     };
-    Err(ParamError::new(
+    Err(Problem::new(
         field,
         format!("{relation} {other_field} ({other}), got {value}"),
     ))
 }
 
 /// Collects the errors of several checks.
-pub(crate) fn collect(checks: impl IntoIterator<Item = Result<(), ParamError>>) -> Vec<ParamError> {
+pub(crate) fn collect(checks: impl IntoIterator<Item = Result<(), Problem>>) -> Vec<Problem> {
     checks.into_iter().filter_map(Result::err).collect()
 }
 
@@ -379,7 +349,7 @@ impl ModelParams {
 
     /// Every invalid parameter, with field names relative to this object.
     #[must_use]
-    pub fn validate(&self) -> Vec<ParamError> {
+    pub fn validate(&self) -> Vec<Problem> {
         match self {
             Self::GodObjectConstant(p) => p.validate(),
             Self::GodObjectTimeVarying(p) => p.validate(),
@@ -414,7 +384,7 @@ impl Friction {
     ///
     /// # Errors
     /// Every invalid parameter of `params`.
-    pub fn new(params: &ModelParams, limit: ForceLimit, x_m: f64) -> Result<Self, Vec<ParamError>> {
+    pub fn new(params: &ModelParams, limit: ForceLimit, x_m: f64) -> Result<Self, Vec<Problem>> {
         let errors = params.validate();
         if !errors.is_empty() {
             return Err(errors);

@@ -49,9 +49,8 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::{
-    ForceLimit, Input, Output, ParamError, Phase, collect, exceeds, non_negative, positive, sign,
-};
+use super::{ForceLimit, Input, Output, Phase, collect, exceeds, non_negative, positive, sign};
+use crate::problem::Problem;
 
 /// Parameters of Nakano's model and its burst. See the module docs for the
 /// choices behind the defaults.
@@ -105,7 +104,7 @@ impl Default for NakanoParams {
 impl NakanoParams {
     /// Every invalid field.
     #[must_use]
-    pub fn validate(&self) -> Vec<ParamError> {
+    pub fn validate(&self) -> Vec<Problem> {
         let mut errors = collect([
             positive("mass_kg", self.mass_kg),
             positive("stiffness_n_m", self.stiffness_n_m),
@@ -125,7 +124,7 @@ impl NakanoParams {
         if errors.is_empty() {
             let zeta = self.damping_ratio();
             if zeta >= 1.0 {
-                errors.push(ParamError::new(
+                errors.push(Problem::new(
                     "damping_n_s_m",
                     format!(
                         "gives damping ratio {zeta:.3}; stick-slip needs c < 2 sqrt(m k) = {:.6}",

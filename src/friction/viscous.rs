@@ -8,7 +8,8 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::{ForceLimit, Input, Output, ParamError, Phase, collect, non_negative};
+use super::{ForceLimit, Input, Output, Phase, collect, non_negative};
+use crate::problem::Problem;
 
 /// Parameters of the viscous model.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -29,7 +30,7 @@ impl Default for ViscousParams {
 impl ViscousParams {
     /// Every invalid field.
     #[must_use]
-    pub fn validate(&self) -> Vec<ParamError> {
+    pub fn validate(&self) -> Vec<Problem> {
         collect([non_negative("damping_n_s_m", self.damping_n_s_m)])
     }
 }

@@ -281,7 +281,7 @@ impl FrictionlabApp {
                             .map_err(|errors| {
                                 errors
                                     .iter()
-                                    .map(|e| format!("{name}: {}: {}", e.path, e.message))
+                                    .map(|e| format!("{name}: {}: {}", e.place, e.message))
                                     .collect()
                             })
                     });
@@ -299,7 +299,7 @@ impl FrictionlabApp {
                     .map_err(|errors| {
                         errors
                             .iter()
-                            .map(|e| format!("{}: {}", e.path, e.message))
+                            .map(|e| format!("{}: {}", e.place, e.message))
                             .collect()
                     });
                 Ok(())

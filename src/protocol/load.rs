@@ -4,11 +4,9 @@
 //! serde alone stops at the first error and loses the path inside internally
 //! tagged enums (`design`, `model`), so the loader walks the known structure
 //! itself. It checks each object's keys and deserializes each leaf with
-//! `serde_path_to_error`. It dispatches the tagged enums by their tag and then
-//! checks the values (ranges, cross-references, zero trials). Pure: it takes
-//! the file's text, not its path.
-
-use std::collections::HashSet;
+//! `serde_path_to_error`. It dispatches the tagged enums by their tag, and
+//! then `check.rs` checks the values (ranges, cross-references, zero trials).
+//! Pure: [`parse`] takes the file's text, not its path.
 
 use serde::de::DeserializeOwned;
 use serde_json::{Map, Value};
@@ -20,39 +18,24 @@ use super::{
 use crate::friction::{
     DahlParams, GodObjectParams, KarnoppParams, ModelParams, NakanoParams, ViscousParams,
 };
-
-/// One problem in a protocol file.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{path}: {message}")]
-pub struct LoadError {
-    /// Where: a JSON path (`design.levels[2].width_m`, `$` for the whole
-    /// document) or, for a syntax error, `line:column`.
-    pub path: String,
-    /// What is wrong.
-    pub message: String,
-}
+use crate::problem::Problem;
 
 /// Parses and checks a protocol.
 ///
 /// # Errors
 /// Every problem found, each with its place.
-pub fn parse(text: &str) -> Result<Protocol, Vec<LoadError>> {
+pub fn parse(text: &str) -> Result<Protocol, Vec<Problem>> {
     let value: Value = serde_json::from_str(text).map_err(|e| {
-        vec![LoadError {
-            path: format!("{}:{}", e.line(), e.column()),
-            message: e
-                .to_string()
-                .split(" at line ")
-                .next()
-                .unwrap_or_default()
-                .to_owned(),
-        }]
+        vec![Problem::new(
+            format!("{}:{}", e.line(), e.column()),
+            e.to_string().split(" at line ").next().unwrap_or_default(),
+        )]
     })?;
     let mut w = Walk::default();
     let protocol = w.protocol(&value);
     match protocol {
         Some(p) if w.errors.is_empty() => {
-            check(&p, &mut w.errors);
+            super::check::check(&p, &mut w.errors);
             if w.errors.is_empty() {
                 Ok(p)
             } else {
@@ -64,28 +47,20 @@ pub fn parse(text: &str) -> Result<Protocol, Vec<LoadError>> {
 }
 
 /// Reads and checks a protocol file; returns it with the file's bytes
-/// (hashed into session logs). Each error's `path` starts with the file:
+/// (hashed into session logs). Each error's `place` starts with the file:
 /// `<file>: <json path or line:col>`.
 ///
 /// # Errors
 /// The file cannot be read or is not UTF-8, or every problem [`parse`] finds.
-pub fn read(path: &std::path::Path) -> Result<(Protocol, Vec<u8>), Vec<LoadError>> {
+pub fn read(path: &std::path::Path) -> Result<(Protocol, Vec<u8>), Vec<Problem>> {
     let file = path.display().to_string();
-    let whole = |message: String| {
-        vec![LoadError {
-            path: file.clone(),
-            message,
-        }]
-    };
+    let whole = |message: String| vec![Problem::new(&file, message)];
     let bytes = std::fs::read(path).map_err(|e| whole(format!("cannot read: {e}")))?;
     let text = std::str::from_utf8(&bytes).map_err(|e| whole(format!("not UTF-8 text: {e}")))?;
     let protocol = parse(text).map_err(|errors| {
         errors
             .into_iter()
-            .map(|e| LoadError {
-                path: format!("{file}: {}", e.path),
-                message: e.message,
-            })
+            .map(|e| Problem::new(format!("{file}: {}", e.place), e.message))
             .collect::<Vec<_>>()
     })?;
     Ok((protocol, bytes))
@@ -102,7 +77,7 @@ pub fn is_valid_id(id: &str) -> bool {
 
 #[derive(Default)]
 struct Walk {
-    errors: Vec<LoadError>,
+    errors: Vec<Problem>,
 }
 
 fn join(path: &str, key: &str) -> String {
@@ -115,10 +90,7 @@ fn join(path: &str, key: &str) -> String {
 
 impl Walk {
     fn err(&mut self, path: impl Into<String>, message: impl Into<String>) {
-        self.errors.push(LoadError {
-            path: path.into(),
-            message: message.into(),
-        });
+        self.errors.push(Problem::new(path, message));
     }
 
     /// `v` as an object whose keys are all in `known`.
@@ -471,7 +443,7 @@ impl Walk {
         let errors = params.validate();
         let ok = errors.is_empty();
         for e in errors {
-            self.err(join(path, &e.field), e.message);
+            self.err(join(path, &e.place), e.message);
         }
         ok.then_some(params)
     }
@@ -485,152 +457,6 @@ fn kind_of(v: &Value) -> &'static str {
         Value::String(_) => "a string",
         Value::Array(_) => "an array",
         Value::Object(_) => "an object",
-    }
-}
-
-/// Value checks on a structurally valid protocol.
-fn check(p: &Protocol, errors: &mut Vec<LoadError>) {
-    let mut err = |path: String, message: String| errors.push(LoadError { path, message });
-    if !is_valid_id(&p.id) {
-        err(
-            "id".into(),
-            format!("'{}': use letters, digits, '-' and '_'", p.id),
-        );
-    }
-    if p.repetitions == 0 {
-        err("repetitions".into(), "must be at least 1".into());
-    }
-    non_negative(&mut err, "break_s", p.break_s);
-    match &p.design {
-        Design::PairedComparison(d) => {
-            non_negative(&mut err, "design.reference_s", d.reference_s);
-            positive(&mut err, "design.exploration_s", d.exploration_s);
-            let ids = condition_ids(
-                &mut err,
-                "design.conditions",
-                d.conditions.iter().map(|c| c.id.as_str()),
-            );
-            if d.pairs.is_empty() {
-                err(
-                    "design.pairs".into(),
-                    "no pairs: the protocol has zero trials".into(),
-                );
-            }
-            for (i, [a, b]) in d.pairs.iter().enumerate() {
-                for (j, id) in [a, b].iter().enumerate() {
-                    if !ids.contains(id.as_str()) {
-                        err(
-                            format!("design.pairs[{i}][{j}]"),
-                            format!("unknown condition '{id}'"),
-                        );
-                    }
-                }
-                if a == b {
-                    err(
-                        format!("design.pairs[{i}]"),
-                        "a pair needs two different conditions".into(),
-                    );
-                }
-            }
-        }
-        Design::MagnitudeEstimation(d) => {
-            positive(&mut err, "design.exploration_s", d.exploration_s);
-            if d.sets.is_empty() {
-                err(
-                    "design.sets".into(),
-                    "no sets: the protocol has zero trials".into(),
-                );
-            }
-            for (i, set) in d.sets.iter().enumerate() {
-                let path = format!("design.sets[{i}]");
-                if !matches!(
-                    set.model,
-                    ModelParams::StickSlipTactile(_) | ModelParams::StickSlipForce(_)
-                ) {
-                    err(
-                        format!("{path}.model.model"),
-                        "a magnitude set needs stick-slip-tactile or stick-slip-force".into(),
-                    );
-                    continue;
-                }
-                if set.stimuli.is_empty() {
-                    err(
-                        format!("{path}.stimuli"),
-                        "no stimuli: the set has zero trials".into(),
-                    );
-                }
-                for (j, s) in set.stimuli.iter().enumerate() {
-                    for e in stimulus_model(&set.model, *s).validate() {
-                        err(format!("{path}.stimuli[{j}].{}", e.field), e.message);
-                    }
-                }
-            }
-        }
-        Design::Fitts(d) => check_fitts(d, &mut err),
-    }
-}
-
-fn check_fitts(d: &FittsDesign, err: &mut impl FnMut(String, String)) {
-    positive(err, "design.cursor_m", d.cursor_m);
-    positive(err, "design.timeout_s", d.timeout_s);
-    if d.taps < 2 {
-        err(
-            "design.taps".into(),
-            format!(
-                "must be at least 2 (a completion time needs a first and a last tap), got {}",
-                d.taps
-            ),
-        );
-    }
-    let ids = condition_ids(
-        err,
-        "design.conditions",
-        d.conditions.iter().map(|c| c.id.as_str()),
-    );
-    if d.levels.is_empty() {
-        err(
-            "design.levels".into(),
-            "no levels: the protocol has zero trials".into(),
-        );
-    }
-    for (i, level) in d.levels.iter().enumerate() {
-        let path = format!("design.levels[{i}]");
-        positive(err, &format!("{path}.amplitude_m"), level.amplitude_m);
-        positive(err, &format!("{path}.width_m"), level.width_m);
-        if level.width_m.is_finite() && d.effective_width(level.width_m) <= 0.0 {
-            err(
-                format!("{path}.width_m"),
-                format!(
-                    "target width {} m must exceed the cursor diameter {} m",
-                    level.width_m, d.cursor_m
-                ),
-            );
-        }
-        if level.amplitude_m <= level.width_m {
-            err(
-                format!("{path}.amplitude_m"),
-                format!(
-                    "targets overlap: distance {} m must exceed width {} m",
-                    level.amplitude_m, level.width_m
-                ),
-            );
-        }
-    }
-    for (i, id) in d.practice.iter().enumerate() {
-        if !ids.contains(id.as_str()) {
-            err(
-                format!("design.practice[{i}]"),
-                format!("unknown condition '{id}'"),
-            );
-        }
-    }
-    for (i, &l) in d.practice_levels.iter().enumerate() {
-        if l >= d.levels.len() {
-            err(
-                format!("design.practice_levels[{i}]"),
-                format!("level {l} does not exist ({} levels)", d.levels.len()),
-            );
-        }
     }
 }
 
@@ -650,46 +476,4 @@ pub fn stimulus_model(model: &ModelParams, s: Stimulus) -> ModelParams {
         }),
         other => other.clone(),
     }
-}
-
-fn positive(err: &mut impl FnMut(String, String), path: &str, x: f64) {
-    if !(x.is_finite() && x > 0.0) {
-        err(path.into(), format!("must be greater than 0, got {x}"));
-    }
-}
-
-fn non_negative(err: &mut impl FnMut(String, String), path: &str, x: f64) {
-    if !(x.is_finite() && x >= 0.0) {
-        err(path.into(), format!("must not be negative, got {x}"));
-    }
-}
-
-/// Checks condition ids (valid, unique, at least one) and returns them.
-fn condition_ids<'a>(
-    err: &mut impl FnMut(String, String),
-    path: &str,
-    ids: impl Iterator<Item = &'a str>,
-) -> HashSet<&'a str> {
-    let mut seen = HashSet::new();
-    for (i, id) in ids.enumerate() {
-        if !is_valid_id(id) {
-            err(
-                format!("{path}[{i}].id"),
-                format!("'{id}': use letters, digits, '-' and '_'"),
-            );
-        }
-        if !seen.insert(id) {
-            err(
-                format!("{path}[{i}].id"),
-                format!("duplicate condition id '{id}'"),
-            );
-        }
-    }
-    if seen.is_empty() {
-        err(
-            path.into(),
-            "no conditions: the protocol has zero trials".into(),
-        );
-    }
-    seen
 }

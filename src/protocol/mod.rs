@@ -22,6 +22,7 @@
 //! objects of [`crate::friction::ModelParams`] (`frictionlab models` lists
 //! them).
 
+mod check;
 pub mod engine;
 pub mod load;
 pub mod plan;

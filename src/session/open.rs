@@ -300,10 +300,10 @@ impl Log {
         }
         match self {
             Log::Open(open) => Ok(open),
-            Log::Planned { .. } => Err(ResultsError::Input {
-                place: "session".into(),
-                message: "the session's files are not open".into(),
-            }),
+            Log::Planned { .. } => Err(ResultsError::input(
+                "session",
+                "the session's files are not open",
+            )),
         }
     }
 

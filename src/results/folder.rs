@@ -1,0 +1,166 @@
+//! The folder's layout: [`ResultsDir`], each session's file names
+//! ([`SessionFiles`], with the ids reduced to file-name keywords by
+//! [`file_key`]), session numbering and participant ids.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+use super::ResultsError;
+use super::session_log::{Header, read_header};
+
+/// Participant ids: letters, digits, `-`, `_`, with at least one letter or
+/// digit.
+///
+/// # Errors
+/// Why the id is refused.
+pub fn check_participant(id: &str) -> Result<(), String> {
+    if crate::protocol::load::is_valid_id(id) {
+        Ok(())
+    } else {
+        Err(format!(
+            "'{id}': use letters, digits, '-' and '_' (and at least one letter or digit)"
+        ))
+    }
+}
+
+/// An id with everything but letters and digits left out (psych-DS keyword
+/// values).
+#[must_use]
+pub fn file_key(id: &str) -> String {
+    id.chars().filter(char::is_ascii_alphanumeric).collect()
+}
+
+/// The results folder.
+#[derive(Debug, Clone)]
+pub struct ResultsDir {
+    root: PathBuf,
+}
+
+/// A session's files.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SessionFiles {
+    /// Session number.
+    pub session: u32,
+    /// The log.
+    pub log: PathBuf,
+    /// The data CSV.
+    pub csv: PathBuf,
+}
+
+impl ResultsDir {
+    /// The folder at `root` (created when the first session starts).
+    #[must_use]
+    pub fn new(root: impl Into<PathBuf>) -> Self {
+        ResultsDir { root: root.into() }
+    }
+
+    /// The folder.
+    #[must_use]
+    pub fn root(&self) -> &Path {
+        &self.root
+    }
+
+    /// The files of a session.
+    #[must_use]
+    pub fn files(&self, protocol_id: &str, participant: &str, session: u32) -> SessionFiles {
+        let stem = format!(
+            "study-{}_subject-{}_session-{session}",
+            file_key(protocol_id),
+            file_key(participant)
+        );
+        SessionFiles {
+            session,
+            log: self.root.join("logs").join(format!("{stem}_log.jsonl")),
+            csv: self.root.join("data").join(format!("{stem}_data.csv")),
+        }
+    }
+
+    /// Every session log in the folder, sorted.
+    pub(super) fn logs(&self) -> Vec<PathBuf> {
+        let Ok(entries) = std::fs::read_dir(self.root.join("logs")) else {
+            return Vec::new();
+        };
+        let mut out: Vec<PathBuf> = entries
+            .filter_map(Result::ok)
+            .map(|e| e.path())
+            .filter(|p| p.to_string_lossy().ends_with("_log.jsonl"))
+            .collect();
+        out.sort();
+        out
+    }
+
+    /// The headers of every readable session log in the folder.
+    #[must_use]
+    pub fn headers(&self) -> Vec<Header> {
+        self.logs()
+            .iter()
+            .filter_map(|p| read_header(p).ok())
+            .collect()
+    }
+
+    /// Sessions of `participant` for `protocol_id`, by number, refusing a
+    /// participant id whose file name would collide with another's.
+    ///
+    /// # Errors
+    /// A collision, or an unreadable log header.
+    pub fn sessions(
+        &self,
+        protocol_id: &str,
+        participant: &str,
+    ) -> Result<Vec<SessionFiles>, ResultsError> {
+        let prefix = format!(
+            "study-{}_subject-{}_session-",
+            file_key(protocol_id),
+            file_key(participant)
+        );
+        let mut out = Vec::new();
+        for path in self.logs() {
+            let name = path
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            let Some(n) = name
+                .strip_prefix(&prefix)
+                .and_then(|r| r.strip_suffix("_log.jsonl"))
+            else {
+                continue;
+            };
+            let Ok(n) = n.parse::<u32>() else { continue };
+            let header = read_header(&path)?;
+            if header.participant != participant {
+                return Err(ResultsError::input(
+                    "--participant",
+                    format!(
+                        "'{participant}' collides with participant '{}' in file names ({}); choose another id",
+                        header.participant,
+                        file_key(participant)
+                    ),
+                ));
+            }
+            out.push(self.files(protocol_id, participant, n));
+        }
+        out.sort_by_key(|s| s.session);
+        Ok(out)
+    }
+
+    /// How many distinct participants have sessions of `protocol_id` here,
+    /// not counting `participant`: the default counterbalancing index of a
+    /// new participant.
+    #[must_use]
+    pub fn other_participants(&self, protocol_id: &str, participant: &str) -> u32 {
+        let prefix = format!("study-{}_subject-", file_key(protocol_id));
+        let own = file_key(participant);
+        let subjects: BTreeSet<String> = self
+            .logs()
+            .iter()
+            .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+            .filter_map(|n| {
+                n.strip_prefix(&prefix)
+                    .and_then(|r| r.split('_').next())
+                    .map(str::to_owned)
+            })
+            .filter(|s| *s != own)
+            .collect();
+        u32::try_from(subjects.len()).unwrap_or(u32::MAX)
+    }
+}

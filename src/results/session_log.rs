@@ -1,0 +1,335 @@
+//! The session log: its header and lines (JSON Lines, with a JSON Schema),
+//! [`SessionLog`] that appends them (flushed and fsync'd line by line), and
+//! [`read_log`] that reads them back, a torn last line ignored and measured.
+
+use std::fmt::Write as _;
+use std::fs::{File, OpenOptions};
+use std::io::{self, BufRead, BufReader, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+
+use super::{ResultsError, io_err};
+use crate::protocol::Protocol;
+use crate::protocol::engine::{Status, TrialRecord};
+
+/// Format tag of the log header.
+pub const LOG_FORMAT: &str = "frictionlab-log/1";
+
+/// The first line of a session log.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Header {
+    /// [`LOG_FORMAT`].
+    pub format: String,
+    /// frictionlab version that wrote the log.
+    pub software_version: String,
+    /// Protocol id.
+    pub protocol_id: String,
+    /// SHA-256 of the protocol file's bytes, hex.
+    pub protocol_sha256: String,
+    /// The protocol as loaded (resume replays it).
+    pub protocol: Protocol,
+    /// Plan seed.
+    pub plan_seed: u64,
+    /// Participant id.
+    pub participant: String,
+    /// Participant index used for counterbalancing.
+    pub participant_index: u32,
+    /// Session number (1-based).
+    pub session: u32,
+    /// Device (`sim` or a port path).
+    pub device: String,
+    /// Responder (`sim` or `gui`).
+    pub responder: String,
+    /// Number of planned trials.
+    pub planned_trials: usize,
+}
+
+/// One line of a session log.
+#[expect(
+    clippy::large_enum_variant,
+    reason = "lines are written one at a time; boxing the trial record buys nothing"
+)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum LogLine {
+    /// The header (first line).
+    Header(Box<Header>),
+    /// A completed or aborted trial.
+    Trial(TrialRecord),
+    /// The session was resumed here.
+    Resumed {
+        /// First trial run after the resume.
+        at_trial: usize,
+        /// Bytes of a torn last line that were cut off before resuming.
+        torn_bytes: u64,
+    },
+    /// The haptic loop's timing and link statistics (device sessions).
+    Loop(crate::device::haptic::LoopStats),
+    /// An experimenter's note.
+    Note {
+        /// The text.
+        text: String,
+    },
+    /// Every planned trial is done.
+    End {
+        /// Completed trials.
+        completed: usize,
+        /// Aborted trials.
+        aborted: usize,
+    },
+}
+
+/// The JSON Schema of one session-log line, pretty-printed (as shipped in
+/// `results-schema/log-line.schema.json`).
+#[must_use]
+pub fn log_json_schema() -> String {
+    let schema = schemars::schema_for!(LogLine);
+    serde_json::to_string_pretty(&schema).unwrap_or_default() + "\n"
+}
+
+/// Hex SHA-256 of `bytes`.
+#[must_use]
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    Sha256::digest(bytes)
+        .iter()
+        .fold(String::new(), |mut s, b| {
+            let _ = write!(s, "{b:02x}");
+            s
+        })
+}
+
+/// An open session log, appended to line by line.
+#[derive(Debug)]
+pub struct SessionLog {
+    file: File,
+    path: PathBuf,
+}
+
+impl SessionLog {
+    /// Creates a new log at `path` (never overwriting) with its header line.
+    ///
+    /// # Errors
+    /// The file exists, or any I/O error.
+    pub fn create(path: &Path, header: Header) -> Result<Self, ResultsError> {
+        if let Some(parent) = path.parent() {
+            std::fs::create_dir_all(parent).map_err(io_err(parent))?;
+        }
+        let file = OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(path)
+            .map_err(io_err(path))?;
+        let mut log = SessionLog {
+            file,
+            path: path.to_owned(),
+        };
+        log.append(&LogLine::Header(Box::new(header)))?;
+        if let Some(parent) = path.parent() {
+            // Make the new file's directory entry durable too.
+            let _ = File::open(parent).and_then(|d| d.sync_all());
+        }
+        Ok(log)
+    }
+
+    /// Opens an existing log to append; a torn last line (no newline) is cut
+    /// off first. Returns the log and the number of bytes cut.
+    ///
+    /// # Errors
+    /// Any I/O error.
+    pub fn reopen(path: &Path, valid_len: u64) -> Result<(Self, u64), ResultsError> {
+        let mut file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .open(path)
+            .map_err(io_err(path))?;
+        let len = file.metadata().map_err(io_err(path))?.len();
+        let torn = len.saturating_sub(valid_len);
+        if torn > 0 {
+            file.set_len(valid_len).map_err(io_err(path))?;
+            file.sync_all().map_err(io_err(path))?;
+        }
+        file.seek(SeekFrom::End(0)).map_err(io_err(path))?;
+        Ok((
+            SessionLog {
+                file,
+                path: path.to_owned(),
+            },
+            torn,
+        ))
+    }
+
+    /// Appends one line, flushed and fsync'd before returning.
+    ///
+    /// # Errors
+    /// Any I/O error.
+    pub fn append(&mut self, line: &LogLine) -> Result<(), ResultsError> {
+        let mut text = serde_json::to_string(line).map_err(|e| ResultsError::Io {
+            path: self.path.display().to_string(),
+            source: io::Error::other(e),
+        })?;
+        text.push('\n');
+        self.file
+            .write_all(text.as_bytes())
+            .map_err(io_err(&self.path))?;
+        self.file.flush().map_err(io_err(&self.path))?;
+        self.file.sync_data().map_err(io_err(&self.path))
+    }
+
+    /// The log's path.
+    #[must_use]
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+/// A log as read back.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReadLog {
+    /// The header.
+    pub header: Header,
+    /// Trial records in log order.
+    pub trials: Vec<TrialRecord>,
+    /// Whether the session ended.
+    pub ended: bool,
+    /// Length of the valid part (up to the last complete line), bytes.
+    pub valid_len: u64,
+    /// Bytes of a torn last line, ignored.
+    pub torn_bytes: u64,
+}
+
+impl ReadLog {
+    /// Trials logged as completed.
+    #[must_use]
+    pub fn completed(&self) -> usize {
+        self.trials
+            .iter()
+            .filter(|r| r.status == crate::protocol::engine::Status::Completed)
+            .count()
+    }
+
+    /// The first trial index not yet finally logged: where a resume starts.
+    /// A trial is final when completed, or aborted and not re-queued.
+    #[must_use]
+    pub fn next_trial(&self) -> usize {
+        crate::protocol::engine::next_position(&self.trials)
+    }
+}
+
+pub(super) fn read_header(path: &Path) -> Result<Header, ResultsError> {
+    let file = File::open(path).map_err(io_err(path))?;
+    let mut first = String::new();
+    BufReader::new(file)
+        .read_line(&mut first)
+        .map_err(io_err(path))?;
+    match serde_json::from_str::<LogLine>(first.trim_end()) {
+        Ok(LogLine::Header(h)) => Ok(*h),
+        Ok(_) => Err(log_error(
+            path,
+            1,
+            1,
+            "the first line is not a header".into(),
+        )),
+        Err(e) => Err(log_error(path, 1, e.column(), e.to_string())),
+    }
+}
+
+fn log_error(path: &Path, line: usize, column: usize, message: String) -> ResultsError {
+    ResultsError::Log {
+        path: path.display().to_string(),
+        line,
+        column,
+        message,
+    }
+}
+
+/// Reads a log. A last line without its newline, or one that does not parse,
+/// is a torn write: ignored and reported in [`ReadLog::torn_bytes`]. A bad
+/// line anywhere else is an error.
+///
+/// # Errors
+/// A missing or bad header, a malformed line before the last, or I/O.
+pub fn read_log(path: &Path) -> Result<ReadLog, ResultsError> {
+    let bytes = std::fs::read(path).map_err(io_err(path))?;
+    parse_log(path, &bytes)
+}
+
+/// [`read_log`] on bytes already read.
+///
+/// # Errors
+/// As [`read_log`].
+pub fn parse_log(path: &Path, bytes: &[u8]) -> Result<ReadLog, ResultsError> {
+    let mut header = None;
+    let mut trials = Vec::new();
+    let mut ended = false;
+    let mut offset = 0_usize;
+    let mut valid_len = 0_usize;
+    let mut line_no = 0;
+    while offset < bytes.len() {
+        line_no += 1;
+        let end = bytes[offset..]
+            .iter()
+            .position(|&b| b == b'\n')
+            .map(|p| offset + p);
+        let (line, next, complete) = match end {
+            Some(e) => (&bytes[offset..e], e + 1, true),
+            None => (&bytes[offset..], bytes.len(), false),
+        };
+        let parsed = std::str::from_utf8(line)
+            .map_err(|e| (e.valid_up_to() + 1, e.to_string()))
+            .and_then(|s| {
+                serde_json::from_str::<LogLine>(s).map_err(|e| (e.column(), e.to_string()))
+            });
+        let is_last = next >= bytes.len();
+        match parsed {
+            Ok(l) if complete => {
+                match l {
+                    LogLine::Header(h) if line_no == 1 => header = Some(*h),
+                    LogLine::Header(_) => {
+                        return Err(log_error(path, line_no, 1, "a second header".into()));
+                    }
+                    _ if line_no == 1 => {
+                        return Err(log_error(
+                            path,
+                            1,
+                            1,
+                            "the first line is not a header".into(),
+                        ));
+                    }
+                    LogLine::Trial(r) => trials.push(r),
+                    LogLine::End { .. } => ended = true,
+                    LogLine::Resumed { .. } | LogLine::Note { .. } | LogLine::Loop(_) => {}
+                }
+                valid_len = next;
+            }
+            _ if is_last && line_no > 1 => break,
+            Ok(_) => {
+                return Err(log_error(
+                    path,
+                    line_no,
+                    line.len() + 1,
+                    "the header line is incomplete".into(),
+                ));
+            }
+            Err((column, message)) => return Err(log_error(path, line_no, column, message)),
+        }
+        offset = next;
+    }
+    let header = header.ok_or_else(|| log_error(path, 1, 1, "empty log: no header".into()))?;
+    Ok(ReadLog {
+        header,
+        trials,
+        ended,
+        valid_len: valid_len as u64,
+        torn_bytes: (bytes.len() - valid_len) as u64,
+    })
+}
+
+/// Whether a record counts as completed.
+#[must_use]
+pub fn is_completed(r: &TrialRecord) -> bool {
+    r.status == Status::Completed
+}
