@@ -48,3 +48,25 @@ fn push(list: &mut VecDeque<f64>, value: f64) {
     }
     list.push_back(value);
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Issue 13: the statistics moved out of the app keep the last
+    /// `FRAMES_KEPT` frames, dropping the oldest.
+    #[test]
+    fn record_keeps_the_last_frames_kept_frames() {
+        let mut stats = FrameStats::default();
+        for i in 0..=FRAMES_KEPT {
+            #[expect(clippy::cast_precision_loss, reason = "small counts")]
+            let i = i as f64;
+            stats.record(i, 2.0 * i);
+        }
+        assert_eq!(stats.cpu_s.len(), FRAMES_KEPT);
+        assert_eq!(stats.interval_s.len(), FRAMES_KEPT);
+        assert_eq!(stats.cpu_s.front(), Some(&1.0));
+        assert_eq!(stats.interval_s.back(), Some(&(2.0 * 100_000.0)));
+        assert!(stats.summary().ends_with("(100000 frames)"));
+    }
+}

@@ -429,3 +429,39 @@ impl SetupPanel {
         });
     }
 }
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, reason = "tests: a panic is a failure")]
+
+    use egui_kittest::{Harness, kittest::Queryable};
+
+    use super::*;
+
+    /// Issue 13: the setup panel only returns what was clicked; the session
+    /// opens (and its files appear) only when the app applies the command.
+    #[test]
+    fn a_start_click_is_returned_as_a_command_and_opens_nothing_itself() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("results");
+        let launch = Launch {
+            participant: "p01".into(),
+            out: out.clone(),
+            ..Launch::default()
+        };
+        let mut h = Harness::new_ui_state(
+            |ui, (panel, commands): &mut (SetupPanel, Vec<Command>)| {
+                commands.extend(panel.ui(ui));
+            },
+            (SetupPanel::new(launch), Vec::new()),
+        );
+        h.get_by_label("Start new session").click();
+        h.step();
+        h.step();
+        assert_eq!(h.state().1, vec![Command::Start { resume: false }]);
+        assert!(!out.exists(), "the panel wrote {}", out.display());
+        let live = h.state().0.start(false).unwrap();
+        assert_eq!(live.participant(), "p01");
+        assert!(out.exists());
+    }
+}
