@@ -20,6 +20,20 @@ struct Loaded {
     label: String,
     protocol: Protocol,
     bytes: Vec<u8>,
+    /// Trials in a session (its plan resolved once, at load).
+    trials: usize,
+}
+
+impl Loaded {
+    fn new(label: String, protocol: Protocol, bytes: Vec<u8>) -> Self {
+        let trials = crate::protocol::plan::resolve(&protocol, 0, 0).trials.len();
+        Loaded {
+            label,
+            protocol,
+            bytes,
+            trials,
+        }
+    }
 }
 
 /// The participant's sessions of the chosen protocol in the chosen folder.
@@ -100,10 +114,8 @@ impl SetupPanel {
             .ok_or_else(|| vec![format!("no shipped protocol {i}")])
             .and_then(|(name, text)| {
                 load::parse(text)
-                    .map(|protocol| Loaded {
-                        label: (*name).to_owned(),
-                        protocol,
-                        bytes: text.as_bytes().to_vec(),
+                    .map(|protocol| {
+                        Loaded::new((*name).to_owned(), protocol, text.as_bytes().to_vec())
                     })
                     .map_err(|errors| {
                         errors
@@ -119,11 +131,7 @@ impl SetupPanel {
         self.choice = None;
         let path = PathBuf::from(self.file.trim());
         self.loaded = load::read(&path)
-            .map(|(protocol, bytes)| Loaded {
-                label: path.display().to_string(),
-                protocol,
-                bytes,
-            })
+            .map(|(protocol, bytes)| Loaded::new(path.display().to_string(), protocol, bytes))
             .map_err(|errors| {
                 errors
                     .iter()
@@ -316,13 +324,12 @@ impl SetupPanel {
     fn protocol_summary(&self, ui: &mut egui::Ui) {
         match &self.loaded {
             Ok(l) => {
-                let plan = crate::protocol::plan::resolve(&l.protocol, 0, 0);
                 ui.label(format!(
                     "{}: {} ({}, {} trials per session)",
                     l.label,
                     l.protocol.title,
                     l.protocol.design.kind().as_str(),
-                    plan.trials.len()
+                    l.trials
                 ));
             }
             Err(errors) => {
@@ -463,5 +470,18 @@ mod tests {
         let live = h.state().0.start(false).unwrap();
         assert_eq!(live.participant(), "p01");
         assert!(out.exists());
+    }
+
+    /// Issue 13: the trials per session, now counted once at load, are
+    /// shown as before (the shipped quick protocol plans 6).
+    #[test]
+    fn the_loaded_protocol_is_shown_with_its_trials_per_session() {
+        let mut panel = SetupPanel::new(Launch::default());
+        let h = Harness::new_ui(move |ui| {
+            let _ = panel.ui(ui);
+        });
+        h.get_by_label(
+            "magnitude-quick.json: Quick magnitude estimation (magnitude_estimation, 6 trials per session)",
+        );
     }
 }
