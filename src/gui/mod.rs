@@ -12,24 +12,35 @@
 //! and the participant view in a second window (embedded as an inner window
 //! where the backend has only one), and applies the [`Command`]s the views
 //! returned, after drawing.
+//!
+//! The views follow egui's demo pattern: each panel is a struct holding its
+//! own state, with a `ui` method that draws it and returns the commands.
+//! This module is the app (state, commands, frame loop, [`run`]); the panels
+//! are `setup` (protocol, participant, folder, seed, device, start or
+//! resume), `session` (progress, controls, prompts, device status, notes) with
+//! its live `plot`, and `participant` (the participant's screens); `frames`
+//! keeps the frame-time statistics.
 
+mod frames;
 mod participant;
+mod plot;
+mod session;
+mod setup;
 
-use std::collections::VecDeque;
 use std::path::PathBuf;
 
 use eframe::egui::{self, Color32, RichText};
 
+pub use frames::FrameStats;
 pub use participant::{WORKSPACE_HALF_M, to_m, to_screen};
 
-use crate::device::PortInfo;
 use crate::protocol::engine::{Answer, Choice, Input};
-use crate::protocol::{Protocol, SHIPPED, load};
-use crate::results::{ResultsDir, check_participant, read_log};
-use crate::session::{DeviceChoice, LiveSession, Phase, SessionRequest, percentile};
+use crate::session::{DeviceChoice, LiveSession, Phase};
+use session::SessionPanel;
+use setup::SetupPanel;
 
-/// Frames kept for the frame-time statistics.
-const FRAMES_KEPT: usize = 100_000;
+/// The colour of errors on the experimenter's screen.
+const ERROR_RED: Color32 = Color32::from_rgb(230, 80, 60);
 
 /// What the window opens with (from the command line).
 #[derive(Debug, Clone)]
@@ -90,6 +101,7 @@ pub fn run(launch: Launch) -> Result<(), String> {
 }
 
 /// What a view asks for; applied after the frame is drawn.
+#[must_use]
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum Command {
     /// Select shipped protocol i.
@@ -124,114 +136,35 @@ pub(crate) enum Command {
     SaveNote,
 }
 
-/// A protocol ready to run.
-struct Loaded {
-    label: String,
-    protocol: Protocol,
-    bytes: Vec<u8>,
-}
-
-/// The participant's sessions of the chosen protocol in the chosen folder.
-#[derive(Debug, Clone, PartialEq, Eq)]
-struct SessionsInfo {
-    key: (String, String, String),
-    next: u32,
-    /// (session, trials logged, planned) of an unfinished last session.
-    unfinished: Option<(u32, usize, usize)>,
-    error: Option<String>,
-}
-
-/// Frame-time statistics from egui's own timing.
-#[derive(Debug, Clone, Default)]
-pub struct FrameStats {
-    /// CPU time of each frame (eframe's `cpu_usage`: UI and painting, not
-    /// vsync), s.
-    pub cpu_s: VecDeque<f64>,
-    /// Time between frames (egui's `unstable_dt`), s.
-    pub interval_s: VecDeque<f64>,
-}
-
-impl FrameStats {
-    fn push(list: &mut VecDeque<f64>, value: f64) {
-        if list.len() == FRAMES_KEPT {
-            list.pop_front();
-        }
-        list.push_back(value);
-    }
-
-    /// `median / p99 over n frames` of CPU time and interval, in ms.
-    #[must_use]
-    pub fn summary(&self) -> String {
-        let ms = |v: Option<f64>| v.map_or("-".into(), |s| format!("{:.2}", s * 1e3));
-        format!(
-            "frame time: cpu median {} ms, p99 {} ms; interval median {} ms, p99 {} ms ({} frames)",
-            ms(percentile(&self.cpu_s, 0.5)),
-            ms(percentile(&self.cpu_s, 0.99)),
-            ms(percentile(&self.interval_s, 0.5)),
-            ms(percentile(&self.interval_s, 0.99)),
-            self.cpu_s.len()
-        )
-    }
-}
-
-/// The application: setup, the live session, and the two views.
+/// The application: the setup and session panels, the live session, and
+/// the participant's view.
 pub struct FrictionlabApp {
-    choice: Option<usize>,
-    file: String,
-    loaded: Result<Loaded, Vec<String>>,
-    participant: String,
-    out: String,
-    seed: String,
-    device: DeviceChoice,
-    ports: Result<Vec<PortInfo>, String>,
-    sessions: Option<SessionsInfo>,
+    setup: SetupPanel,
+    session: SessionPanel,
     live: Option<LiveSession>,
     error: Option<String>,
-    note: String,
-    notes_saved: usize,
+    /// The participant's magnitude being typed.
     answer: String,
     frames: FrameStats,
+    /// The participant's workspace strip as last drawn.
     canvas: Option<egui::Rect>,
-    fullscreen: bool,
-    participant_index: Option<u32>,
 }
 
 impl FrictionlabApp {
     /// A window set up from `launch`.
     #[must_use]
     pub fn new(launch: Launch) -> Self {
+        let start = launch.start;
         let mut app = FrictionlabApp {
-            choice: Some(0),
-            file: String::new(),
-            loaded: Err(Vec::new()),
-            participant: launch.participant,
-            out: launch.out.display().to_string(),
-            seed: String::new(),
-            device: launch.device,
-            ports: crate::device::list_ports(),
-            sessions: None,
+            setup: SetupPanel::new(launch),
+            session: SessionPanel::default(),
             live: None,
             error: None,
-            note: String::new(),
-            notes_saved: 0,
             answer: String::new(),
             frames: FrameStats::default(),
             canvas: None,
-            fullscreen: false,
-            participant_index: None,
         };
-        match launch.protocol {
-            Some(path) => {
-                app.file = path.display().to_string();
-                app.apply(Command::LoadFile);
-            }
-            None => app.apply(Command::Shipped(0)),
-        }
-        if let Some(start) = launch.start {
-            if let Some(seed) = start.seed {
-                app.seed = seed.to_string();
-            }
-            app.participant_index = start.participant_index;
+        if let Some(start) = start {
             app.apply(Command::Start {
                 resume: start.resume,
             });
@@ -267,55 +200,30 @@ impl FrictionlabApp {
     fn apply(&mut self, command: Command) {
         let result = match command {
             Command::Shipped(i) => {
-                self.choice = Some(i);
-                self.loaded = SHIPPED
-                    .get(i)
-                    .ok_or_else(|| vec![format!("no shipped protocol {i}")])
-                    .and_then(|(name, text)| {
-                        load::parse(text)
-                            .map(|protocol| Loaded {
-                                label: (*name).to_owned(),
-                                protocol,
-                                bytes: text.as_bytes().to_vec(),
-                            })
-                            .map_err(|errors| {
-                                errors
-                                    .iter()
-                                    .map(|e| format!("{name}: {}: {}", e.place, e.message))
-                                    .collect()
-                            })
-                    });
+                self.setup.select_shipped(i);
                 Ok(())
             }
             Command::LoadFile => {
-                self.choice = None;
-                let path = PathBuf::from(self.file.trim());
-                self.loaded = load::read(&path)
-                    .map(|(protocol, bytes)| Loaded {
-                        label: path.display().to_string(),
-                        protocol,
-                        bytes,
-                    })
-                    .map_err(|errors| {
-                        errors
-                            .iter()
-                            .map(|e| format!("{}: {}", e.place, e.message))
-                            .collect()
-                    });
+                self.setup.load_file();
                 Ok(())
             }
             Command::RefreshPorts => {
-                self.ports = crate::device::list_ports();
+                self.setup.refresh_ports();
                 Ok(())
             }
-            Command::Start { resume } => self.start(resume),
+            Command::Start { resume } => self.setup.start(resume).map(|live| {
+                self.live = Some(live);
+                self.error = None;
+                self.answer.clear();
+                self.session.new_session();
+            }),
             Command::Pause => self.with_live(LiveSession::pause),
             Command::Resume => self.with_live(LiveSession::resume),
             Command::Abort => self.with_live(LiveSession::abort),
             Command::Close => {
                 self.live = None;
-                self.sessions = None;
-                self.notes_saved = 0;
+                self.setup.forget_sessions();
+                self.session.new_session();
                 Ok(())
             }
             Command::Continue => self.with_live(|l| l.input(Input::Continue)),
@@ -339,19 +247,16 @@ impl FrictionlabApp {
                 }
                 Ok(())
             }
-            Command::SaveNote => {
-                let text = self.note.trim().to_owned();
-                if text.is_empty() {
-                    Ok(())
-                } else {
+            Command::SaveNote => match self.session.note_to_save() {
+                None => Ok(()),
+                Some(text) => {
                     let r = self.with_live(|l| l.note(&text));
                     if r.is_ok() {
-                        self.note.clear();
-                        self.notes_saved += 1;
+                        self.session.note_saved();
                     }
                     r
                 }
-            }
+            },
         };
         if let Err(e) = result {
             self.error = Some(e);
@@ -368,463 +273,38 @@ impl FrictionlabApp {
         }
     }
 
-    /// The problems that keep Start disabled.
-    fn start_problems(&self) -> Vec<String> {
-        let mut problems = Vec::new();
-        if self.loaded.is_err() {
-            problems.push("choose a valid protocol".to_owned());
-        }
-        if let Err(m) = check_participant(self.participant.trim()) {
-            problems.push(format!("participant id {m}"));
-        }
-        if self.out.trim().is_empty() {
-            problems.push("choose an output folder".to_owned());
-        }
-        if let Err(m) = self.parsed_seed() {
-            problems.push(m);
-        }
-        if let DeviceChoice::Port(p) = &self.device
-            && p.as_os_str().is_empty()
-        {
-            problems.push("choose a serial port".to_owned());
-        }
-        problems
-    }
-
-    fn parsed_seed(&self) -> Result<Option<u64>, String> {
-        let t = self.seed.trim();
-        if t.is_empty() {
-            return Ok(None);
-        }
-        t.parse()
-            .map(Some)
-            .map_err(|_| format!("plan seed '{t}': a whole number from 0 to 2^64-1"))
-    }
-
-    fn start(&mut self, resume: bool) -> Result<(), String> {
-        let problems = self.start_problems();
-        if !problems.is_empty() {
-            return Err(format!("cannot start: {}", problems.join("; ")));
-        }
-        let Ok(loaded) = &self.loaded else {
-            return Ok(());
-        };
-        let seed = self.parsed_seed()?.unwrap_or_else(rand::random::<u64>);
-        let participant = self.participant.trim().to_owned();
-        let req = SessionRequest {
-            protocol: &loaded.protocol,
-            protocol_bytes: &loaded.bytes,
-            participant: &participant,
-            participant_index: self.participant_index,
-            seed,
-            resume,
-            pace: None,
-            device: &self.device,
-            streams: true,
-        };
-        let dir = ResultsDir::new(self.out.trim());
-        let live = LiveSession::start(&dir, &req).map_err(|e| format!("error: {e}"))?;
-        self.live = Some(live);
-        self.error = None;
-        self.answer.clear();
-        self.notes_saved = 0;
-        Ok(())
-    }
-
-    /// Recomputes the participant's sessions when protocol, folder or id
-    /// changed.
-    fn refresh_sessions(&mut self) {
-        let Ok(loaded) = &self.loaded else {
-            self.sessions = None;
-            return;
-        };
-        let key = (
-            self.out.trim().to_owned(),
-            loaded.protocol.id.clone(),
-            self.participant.trim().to_owned(),
-        );
-        if self.sessions.as_ref().is_some_and(|s| s.key == key) {
-            return;
-        }
-        let mut info = SessionsInfo {
-            key: key.clone(),
-            next: 1,
-            unfinished: None,
-            error: None,
-        };
-        if check_participant(&key.2).is_ok() {
-            match ResultsDir::new(&key.0).sessions(&key.1, &key.2) {
-                Ok(sessions) => {
-                    if let Some(last) = sessions.last() {
-                        info.next = last.session + 1;
-                        match read_log(&last.log) {
-                            Ok(read) if !read.ended => {
-                                info.unfinished = Some((
-                                    last.session,
-                                    read.next_trial(),
-                                    read.header.planned_trials,
-                                ));
-                            }
-                            Ok(_) => {}
-                            Err(e) => info.error = Some(format!("error: {e}")),
-                        }
-                    }
-                }
-                Err(e) => info.error = Some(format!("error: {e}")),
-            }
-        }
-        self.sessions = Some(info);
-    }
-
-    fn experimenter(&mut self, ui: &mut egui::Ui, commands: &mut Vec<Command>) {
+    /// The experimenter's view: the setup panel, or the open session's.
+    #[must_use]
+    fn experimenter(&mut self, ui: &mut egui::Ui) -> Vec<Command> {
         ui.heading("frictionlab: experimenter");
         if let Some(e) = &self.error {
-            ui.label(RichText::new(e).color(Color32::from_rgb(230, 80, 60)));
+            ui.label(RichText::new(e).color(ERROR_RED));
         }
         ui.separator();
-        if let Some(live) = &self.live {
-            let protocol = self.loaded.as_ref().map_or("", |l| l.label.as_str());
+        let commands = if let Some(live) = &self.live {
             ui.label(format!(
-                "Protocol {protocol} · participant {} · folder {} · plan seed {}",
+                "Protocol {} · participant {} · folder {} · plan seed {}",
+                self.setup.protocol_label(),
                 live.participant(),
-                self.out.trim(),
+                self.setup.folder(),
                 live.plan_seed()
             ));
             ui.separator();
-            self.session_panel(ui, commands);
+            self.session.ui(ui, live)
         } else {
-            self.setup(ui, commands);
-        }
+            self.setup.ui(ui)
+        };
         ui.separator();
         ui.label(RichText::new(self.frames.summary()).small().weak());
+        commands
     }
-
-    fn setup(&mut self, ui: &mut egui::Ui, commands: &mut Vec<Command>) {
-        egui::Grid::new("setup")
-            .num_columns(2)
-            .spacing([12.0, 8.0])
-            .show(ui, |ui| {
-                ui.label("Protocol");
-                ui.horizontal_wrapped(|ui| {
-                    for (i, (name, _)) in SHIPPED.iter().enumerate() {
-                        if ui.selectable_label(self.choice == Some(i), *name).clicked() {
-                            commands.push(Command::Shipped(i));
-                        }
-                    }
-                });
-                ui.end_row();
-                let label = ui.label("Protocol file");
-                ui.horizontal(|ui| {
-                    ui.add(egui::TextEdit::singleline(&mut self.file).desired_width(420.0))
-                        .labelled_by(label.id);
-                    if ui.button("Load file").clicked() {
-                        commands.push(Command::LoadFile);
-                    }
-                });
-                ui.end_row();
-                ui.label("");
-                match &self.loaded {
-                    Ok(l) => {
-                        let plan = crate::protocol::plan::resolve(&l.protocol, 0, 0);
-                        ui.label(format!(
-                            "{}: {} ({}, {} trials per session)",
-                            l.label,
-                            l.protocol.title,
-                            l.protocol.design.kind().as_str(),
-                            plan.trials.len()
-                        ));
-                    }
-                    Err(errors) => {
-                        ui.vertical(|ui| {
-                            for e in errors {
-                                ui.label(
-                                    RichText::new(e)
-                                        .monospace()
-                                        .color(Color32::from_rgb(230, 80, 60)),
-                                );
-                            }
-                        });
-                    }
-                }
-                ui.end_row();
-                let label = ui.label("Participant id");
-                ui.horizontal(|ui| {
-                    ui.add(egui::TextEdit::singleline(&mut self.participant).desired_width(200.0))
-                        .labelled_by(label.id);
-                    let id = self.participant.trim();
-                    if !id.is_empty()
-                        && let Err(m) = check_participant(id)
-                    {
-                        ui.label(RichText::new(m).color(Color32::from_rgb(230, 80, 60)));
-                    }
-                });
-                ui.end_row();
-                let label = ui.label("Output folder");
-                ui.add(egui::TextEdit::singleline(&mut self.out).desired_width(420.0))
-                    .labelled_by(label.id);
-                ui.end_row();
-                let label = ui.label("Plan seed");
-                ui.horizontal(|ui| {
-                    ui.add(egui::TextEdit::singleline(&mut self.seed).desired_width(200.0))
-                        .labelled_by(label.id);
-                    ui.label(RichText::new("empty: drawn at random and logged").weak());
-                });
-                ui.end_row();
-                ui.label("Device");
-                self.device_picker(ui, commands);
-                ui.end_row();
-                ui.label("Session");
-                self.session_choice(ui, commands);
-                ui.end_row();
-            });
-    }
-
-    fn device_picker(&mut self, ui: &mut egui::Ui, commands: &mut Vec<Command>) {
-        ui.vertical(|ui| {
-            ui.radio_value(
-                &mut self.device,
-                DeviceChoice::Simulated,
-                "Simulated device (the mouse is the hand)",
-            );
-            ui.horizontal(|ui| {
-                let on_port = matches!(self.device, DeviceChoice::Port(_));
-                if ui.radio(on_port, "Serial port").clicked() && !on_port {
-                    let first = self
-                        .ports
-                        .as_ref()
-                        .ok()
-                        .and_then(|p| p.first())
-                        .map(|p| PathBuf::from(&p.path))
-                        .unwrap_or_default();
-                    self.device = DeviceChoice::Port(first);
-                }
-                let current = match &self.device {
-                    DeviceChoice::Port(p) => p.display().to_string(),
-                    DeviceChoice::Simulated => String::new(),
-                };
-                egui::ComboBox::from_label("port")
-                    .selected_text(if current.is_empty() {
-                        "(none)".into()
-                    } else {
-                        current
-                    })
-                    .show_ui(ui, |ui| {
-                        if let Ok(ports) = &self.ports {
-                            for p in ports {
-                                let text = format!("{}  {}", p.path, p.kind);
-                                if ui.selectable_label(false, text).clicked() {
-                                    self.device = DeviceChoice::Port(PathBuf::from(&p.path));
-                                }
-                            }
-                        }
-                    });
-                if ui.button("Refresh ports").clicked() {
-                    commands.push(Command::RefreshPorts);
-                }
-                match &self.ports {
-                    Ok(p) if p.is_empty() => {
-                        ui.label(RichText::new("no serial ports found").weak());
-                    }
-                    Ok(_) => {}
-                    Err(e) => {
-                        ui.label(RichText::new(format!("cannot list ports: {e}")).weak());
-                    }
-                }
-            });
-        });
-    }
-
-    fn session_choice(&mut self, ui: &mut egui::Ui, commands: &mut Vec<Command>) {
-        self.refresh_sessions();
-        let problems = self.start_problems();
-        ui.vertical(|ui| {
-            if let Some(info) = &self.sessions {
-                if let Some(e) = &info.error {
-                    ui.label(RichText::new(e).color(Color32::from_rgb(230, 80, 60)));
-                }
-                if let Some((session, done, total)) = info.unfinished {
-                    ui.label(format!(
-                        "Session {session} is unfinished: {done} of {total} trials done."
-                    ));
-                    if ui
-                        .add_enabled(
-                            problems.is_empty(),
-                            egui::Button::new(format!("Resume session {session}")),
-                        )
-                        .clicked()
-                    {
-                        commands.push(Command::Start { resume: true });
-                    }
-                }
-                ui.label(format!("A new session will be session {}.", info.next));
-            }
-            let start = ui.add_enabled(
-                problems.is_empty(),
-                egui::Button::new(RichText::new("Start new session").strong()),
-            );
-            if start.clicked() {
-                commands.push(Command::Start { resume: false });
-            }
-            if !problems.is_empty() && self.live.is_none() {
-                ui.label(RichText::new(format!("To start: {}.", problems.join("; "))).weak());
-            }
-        });
-    }
-
-    fn session_panel(&mut self, ui: &mut egui::Ui, commands: &mut Vec<Command>) {
-        let Some(live) = &self.live else {
-            return;
-        };
-        let p = live.progress();
-        let phase = live.phase();
-        let remaining = p
-            .remaining_s
-            .map_or("unknown until a trial ends".into(), |s| {
-                format!("about {s:.0} s")
-            });
-        ui.heading(format!(
-            "Session {}: {}",
-            live.session(),
-            match phase {
-                Phase::Running => "running",
-                Phase::Paused => "paused",
-                Phase::Finished => "finished",
-                Phase::Aborted => "aborted (it can be resumed)",
-            }
-        ));
-        ui.label(format!(
-            "Trial {} of {} · block {} · elapsed {:.1} s · remaining {remaining}",
-            p.trial, p.total, p.block, p.elapsed_s
-        ));
-        #[expect(clippy::cast_possible_truncation, reason = "a progress fraction")]
-        let fraction = if phase == Phase::Finished {
-            1.0
-        } else {
-            (p.trial.saturating_sub(1) as f64 / p.total.max(1) as f64) as f32
-        };
-        ui.add(egui::ProgressBar::new(fraction).show_percentage());
-        ui.horizontal(|ui| match phase {
-            Phase::Running => {
-                if ui.button("Pause").clicked() {
-                    commands.push(Command::Pause);
-                }
-                if ui.button("Abort session").clicked() {
-                    commands.push(Command::Abort);
-                }
-            }
-            Phase::Paused => {
-                if ui.button("Resume").clicked() {
-                    commands.push(Command::Resume);
-                }
-                if ui.button("Abort session").clicked() {
-                    commands.push(Command::Abort);
-                }
-            }
-            Phase::Finished | Phase::Aborted => {
-                ui.label(format!("Data: {}", live.csv().display()));
-                if ui.button("Close session").clicked() {
-                    commands.push(Command::Close);
-                }
-            }
-        });
-        if let Some(prompt) = &live.view().prompt {
-            egui::Frame::group(ui.style())
-                .fill(Color32::from_rgb(70, 60, 20))
-                .show(ui, |ui| {
-                    ui.label(RichText::new(format!("Experimenter: {prompt}")).strong());
-                    if ui.button("Done, continue").clicked() {
-                        commands.push(Command::Continue);
-                    }
-                });
-        }
-        device_line(ui, live);
-        ui.checkbox(&mut self.fullscreen, "Participant window full screen");
-        let label = ui.label("Note for the session log");
-        ui.horizontal(|ui| {
-            ui.add(
-                egui::TextEdit::multiline(&mut self.note)
-                    .desired_rows(2)
-                    .desired_width(600.0),
-            )
-            .labelled_by(label.id);
-            if ui.button("Save note").clicked() {
-                commands.push(Command::SaveNote);
-            }
-        });
-        if self.notes_saved > 0 {
-            ui.label(
-                RichText::new(format!("{} note(s) saved to the log", self.notes_saved)).weak(),
-            );
-        }
-        trace_plot(ui, live);
-    }
-}
-
-/// The device's live status, one line.
-fn device_line(ui: &mut egui::Ui, live: &LiveSession) {
-    let d = live.device_status();
-    ui.label(format!(
-        "Device {} · {} · loop {:.0} Hz · period p99 {} · force {:.3} N · position {:.2} mm",
-        d.device,
-        if d.connected {
-            "connected"
-        } else {
-            "NOT CONNECTED"
-        },
-        d.rate_hz,
-        d.period_p99_s
-            .map_or("n/a (simulated, session time)".into(), |s| format!(
-                "{:.0} µs",
-                s * 1e6
-            )),
-        d.force_n,
-        d.x_m * 1e3
-    ));
-}
-
-/// Position (mm), force (N) and vibrotactile envelope over the last seconds, on
-/// a shared time axis.
-fn trace_plot(ui: &mut egui::Ui, live: &LiveSession) {
-    use egui_plot::{Legend, Line, Plot, PlotPoints};
-    let trace = live.trace();
-    let x: Vec<[f64; 2]> = trace.iter().map(|p| [p.t_s, p.x_m * 1e3]).collect();
-    let f: Vec<[f64; 2]> = trace.iter().map(|p| [p.t_s, p.force_n]).collect();
-    let vibration: Vec<[f64; 2]> = trace.iter().map(|p| [p.t_s, p.vibration]).collect();
-    let link = egui::Id::unique("trace-time");
-    let height = ((ui.available_height() - 30.0) / 2.0).max(80.0);
-    // A fixed view: the plots follow the trace, not the pointer.
-    let plot = |id: &str| {
-        Plot::new(id)
-            .height(height)
-            .legend(Legend::default())
-            .link_axis(link, [true, false])
-            .allow_drag(false)
-            .allow_zoom(false)
-            .allow_scroll(false)
-    };
-    plot("position")
-        .y_axis_label("position (mm)")
-        .show(ui, |plot| {
-            plot.line(Line::new("position (mm)", PlotPoints::from(x)));
-        });
-    plot("force")
-        .x_axis_label("session time (s)")
-        .y_axis_label("force (N), drive")
-        .show(ui, |plot| {
-            plot.line(Line::new("force (N)", PlotPoints::from(f)));
-            plot.line(Line::new(
-                "vibrotactile envelope (0..1)",
-                PlotPoints::from(vibration),
-            ));
-        });
 }
 
 impl eframe::App for FrictionlabApp {
     fn logic(&mut self, ctx: &egui::Context, frame: &mut eframe::Frame) {
         let (now, dt) = ctx.input(|i| (i.time, f64::from(i.unstable_dt)));
         if let Some(cpu) = frame.info().cpu_usage {
-            FrameStats::push(&mut self.frames.cpu_s, f64::from(cpu));
-            FrameStats::push(&mut self.frames.interval_s, dt);
+            self.frames.record(f64::from(cpu), dt);
         }
         if let Some(live) = &mut self.live {
             if let Err(e) = live.advance(now) {
@@ -843,7 +323,7 @@ impl eframe::App for FrictionlabApp {
         }
         let mut commands = Vec::new();
         egui::CentralPanel::default_margins().show(ui, |ui| {
-            egui::ScrollArea::vertical().show(ui, |ui| self.experimenter(ui, &mut commands));
+            egui::ScrollArea::vertical().show(ui, |ui| commands = self.experimenter(ui));
         });
         if let Some(live) = &self.live {
             let answer = &mut self.answer;
@@ -872,7 +352,7 @@ impl eframe::App for FrictionlabApp {
                     .with_title(title)
                     .with_inner_size(size)
                     .with_position(position)
-                    .with_fullscreen(self.fullscreen);
+                    .with_fullscreen(self.session.fullscreen());
                 ctx.show_viewport_immediate(
                     egui::ViewportId::from_hash_of("participant"),
                     builder,

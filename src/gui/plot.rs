@@ -1,0 +1,43 @@
+//! The live plot under the session panel: position, force and vibrotactile
+//! envelope over the last seconds of [`LiveSession::trace`].
+
+use eframe::egui;
+use egui_plot::{Legend, Line, Plot, PlotPoints};
+
+use crate::session::LiveSession;
+
+/// Position (mm), force (N) and vibrotactile envelope over the last seconds, on
+/// a shared time axis.
+pub(super) fn show(ui: &mut egui::Ui, live: &LiveSession) {
+    let trace = live.trace();
+    let x: Vec<[f64; 2]> = trace.iter().map(|p| [p.t_s, p.x_m * 1e3]).collect();
+    let f: Vec<[f64; 2]> = trace.iter().map(|p| [p.t_s, p.force_n]).collect();
+    let vibration: Vec<[f64; 2]> = trace.iter().map(|p| [p.t_s, p.vibration]).collect();
+    let link = egui::Id::unique("trace-time");
+    let height = ((ui.available_height() - 30.0) / 2.0).max(80.0);
+    // A fixed view: the plots follow the trace, not the pointer.
+    let plot = |id: &str| {
+        Plot::new(id)
+            .height(height)
+            .legend(Legend::default())
+            .link_axis(link, [true, false])
+            .allow_drag(false)
+            .allow_zoom(false)
+            .allow_scroll(false)
+    };
+    plot("position")
+        .y_axis_label("position (mm)")
+        .show(ui, |plot| {
+            plot.line(Line::new("position (mm)", PlotPoints::from(x)));
+        });
+    plot("force")
+        .x_axis_label("session time (s)")
+        .y_axis_label("force (N), drive")
+        .show(ui, |plot| {
+            plot.line(Line::new("force (N)", PlotPoints::from(f)));
+            plot.line(Line::new(
+                "vibrotactile envelope (0..1)",
+                PlotPoints::from(vibration),
+            ));
+        });
+}

@@ -1,0 +1,485 @@
+//! The setup panel: what the experimenter chooses before a session (the
+//! protocol, shipped or from a file; participant id; output folder; plan
+//! seed; device), the participant's sessions so far in that folder, and the
+//! Start and Resume buttons. It draws its state and returns [`Command`]s;
+//! the app applies them after the frame, through the methods here.
+
+use std::path::PathBuf;
+
+use eframe::egui::{self, RichText};
+
+use super::{Command, ERROR_RED, Launch};
+use crate::device::PortInfo;
+use crate::protocol::{Protocol, SHIPPED, load};
+use crate::results::{ResultsDir, check_participant, read_log};
+use crate::session::{DeviceChoice, LiveSession, SessionRequest};
+
+/// A protocol ready to run.
+struct Loaded {
+    label: String,
+    protocol: Protocol,
+    bytes: Vec<u8>,
+    /// Trials in a session (its plan resolved once, at load).
+    trials: usize,
+}
+
+impl Loaded {
+    fn new(label: String, protocol: Protocol, bytes: Vec<u8>) -> Self {
+        let trials = crate::protocol::plan::resolve(&protocol, 0, 0).trials.len();
+        Loaded {
+            label,
+            protocol,
+            bytes,
+            trials,
+        }
+    }
+}
+
+/// The participant's sessions of the chosen protocol in the chosen folder.
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct SessionsInfo {
+    key: (String, String, String),
+    next: u32,
+    /// (session, trials logged, planned) of an unfinished last session.
+    unfinished: Option<(u32, usize, usize)>,
+    error: Option<String>,
+}
+
+/// What the setup panel keeps between frames.
+pub(super) struct SetupPanel {
+    /// The shipped protocol chosen, if one is.
+    choice: Option<usize>,
+    /// The protocol file typed in.
+    file: String,
+    /// The protocol chosen or loaded, or why it cannot run.
+    loaded: Result<Loaded, Vec<String>>,
+    participant: String,
+    out: String,
+    seed: String,
+    device: DeviceChoice,
+    ports: Result<Vec<PortInfo>, String>,
+    /// Recomputed when protocol, folder or participant change.
+    sessions: Option<SessionsInfo>,
+    /// Counterbalancing index given on the command line.
+    participant_index: Option<u32>,
+}
+
+impl SetupPanel {
+    /// The setup `launch` asks for, its protocol loaded.
+    pub(super) fn new(launch: Launch) -> Self {
+        let mut setup = SetupPanel {
+            choice: Some(0),
+            file: String::new(),
+            loaded: Err(Vec::new()),
+            participant: launch.participant,
+            out: launch.out.display().to_string(),
+            seed: String::new(),
+            device: launch.device,
+            ports: crate::device::list_ports(),
+            sessions: None,
+            participant_index: None,
+        };
+        match launch.protocol {
+            Some(path) => {
+                setup.file = path.display().to_string();
+                setup.load_file();
+            }
+            None => setup.select_shipped(0),
+        }
+        if let Some(start) = launch.start {
+            if let Some(seed) = start.seed {
+                setup.seed = seed.to_string();
+            }
+            setup.participant_index = start.participant_index;
+        }
+        setup
+    }
+
+    /// The chosen protocol's label (shipped name or file path), or "".
+    pub(super) fn protocol_label(&self) -> &str {
+        self.loaded.as_ref().map_or("", |l| l.label.as_str())
+    }
+
+    /// The output folder typed in, trimmed.
+    pub(super) fn folder(&self) -> &str {
+        self.out.trim()
+    }
+
+    /// Selects shipped protocol `i`.
+    pub(super) fn select_shipped(&mut self, i: usize) {
+        self.choice = Some(i);
+        self.loaded = SHIPPED
+            .get(i)
+            .ok_or_else(|| vec![format!("no shipped protocol {i}")])
+            .and_then(|(name, text)| {
+                load::parse(text)
+                    .map(|protocol| {
+                        Loaded::new((*name).to_owned(), protocol, text.as_bytes().to_vec())
+                    })
+                    .map_err(|errors| {
+                        errors
+                            .iter()
+                            .map(|e| format!("{name}: {}: {}", e.place, e.message))
+                            .collect()
+                    })
+            });
+    }
+
+    /// Loads the protocol file typed in.
+    pub(super) fn load_file(&mut self) {
+        self.choice = None;
+        let path = PathBuf::from(self.file.trim());
+        self.loaded = load::read(&path)
+            .map(|(protocol, bytes)| Loaded::new(path.display().to_string(), protocol, bytes))
+            .map_err(|errors| {
+                errors
+                    .iter()
+                    .map(|e| format!("{}: {}", e.place, e.message))
+                    .collect()
+            });
+    }
+
+    /// Lists the serial ports again.
+    pub(super) fn refresh_ports(&mut self) {
+        self.ports = crate::device::list_ports();
+    }
+
+    /// Forgets the participant's sessions, so they are listed again (a
+    /// session was closed).
+    pub(super) fn forget_sessions(&mut self) {
+        self.sessions = None;
+    }
+
+    /// The problems that keep Start disabled.
+    fn start_problems(&self) -> Vec<String> {
+        let mut problems = Vec::new();
+        if self.loaded.is_err() {
+            problems.push("choose a valid protocol".to_owned());
+        }
+        if let Err(m) = check_participant(self.participant.trim()) {
+            problems.push(format!("participant id {m}"));
+        }
+        if self.out.trim().is_empty() {
+            problems.push("choose an output folder".to_owned());
+        }
+        if let Err(m) = self.parsed_seed() {
+            problems.push(m);
+        }
+        if let DeviceChoice::Port(p) = &self.device
+            && p.as_os_str().is_empty()
+        {
+            problems.push("choose a serial port".to_owned());
+        }
+        problems
+    }
+
+    fn parsed_seed(&self) -> Result<Option<u64>, String> {
+        let t = self.seed.trim();
+        if t.is_empty() {
+            return Ok(None);
+        }
+        t.parse()
+            .map(Some)
+            .map_err(|_| format!("plan seed '{t}': a whole number from 0 to 2^64-1"))
+    }
+
+    /// Starts a new session, or resumes the unfinished one, as set up.
+    ///
+    /// # Errors
+    /// The setup is incomplete, or the session cannot open: the message
+    /// to show.
+    pub(super) fn start(&self, resume: bool) -> Result<LiveSession, String> {
+        let problems = self.start_problems();
+        // A protocol that did not load is one of the problems.
+        let (true, Ok(loaded)) = (problems.is_empty(), &self.loaded) else {
+            return Err(format!("cannot start: {}", problems.join("; ")));
+        };
+        let seed = self.parsed_seed()?.unwrap_or_else(rand::random::<u64>);
+        let participant = self.participant.trim().to_owned();
+        let req = SessionRequest {
+            protocol: &loaded.protocol,
+            protocol_bytes: &loaded.bytes,
+            participant: &participant,
+            participant_index: self.participant_index,
+            seed,
+            resume,
+            pace: None,
+            device: &self.device,
+            streams: true,
+        };
+        let dir = ResultsDir::new(self.out.trim());
+        LiveSession::start(&dir, &req).map_err(|e| format!("error: {e}"))
+    }
+
+    /// Recomputes the participant's sessions when protocol, folder or id
+    /// changed.
+    fn refresh_sessions(&mut self) {
+        let Ok(loaded) = &self.loaded else {
+            self.sessions = None;
+            return;
+        };
+        let key = (
+            self.out.trim().to_owned(),
+            loaded.protocol.id.clone(),
+            self.participant.trim().to_owned(),
+        );
+        if self.sessions.as_ref().is_some_and(|s| s.key == key) {
+            return;
+        }
+        let mut info = SessionsInfo {
+            key: key.clone(),
+            next: 1,
+            unfinished: None,
+            error: None,
+        };
+        if check_participant(&key.2).is_ok() {
+            match ResultsDir::new(&key.0).sessions(&key.1, &key.2) {
+                Ok(sessions) => {
+                    if let Some(last) = sessions.last() {
+                        info.next = last.session + 1;
+                        match read_log(&last.log) {
+                            Ok(read) if !read.ended => {
+                                info.unfinished = Some((
+                                    last.session,
+                                    read.next_trial(),
+                                    read.header.planned_trials,
+                                ));
+                            }
+                            Ok(_) => {}
+                            Err(e) => info.error = Some(format!("error: {e}")),
+                        }
+                    }
+                }
+                Err(e) => info.error = Some(format!("error: {e}")),
+            }
+        }
+        self.sessions = Some(info);
+    }
+
+    /// Draws the setup form.
+    #[must_use]
+    pub(super) fn ui(&mut self, ui: &mut egui::Ui) -> Vec<Command> {
+        let mut commands = Vec::new();
+        egui::Grid::new("setup")
+            .num_columns(2)
+            .spacing([12.0, 8.0])
+            .show(ui, |ui| {
+                ui.label("Protocol");
+                ui.horizontal_wrapped(|ui| {
+                    for (i, (name, _)) in SHIPPED.iter().enumerate() {
+                        if ui.selectable_label(self.choice == Some(i), *name).clicked() {
+                            commands.push(Command::Shipped(i));
+                        }
+                    }
+                });
+                ui.end_row();
+                let label = ui.label("Protocol file");
+                ui.horizontal(|ui| {
+                    ui.add(egui::TextEdit::singleline(&mut self.file).desired_width(420.0))
+                        .labelled_by(label.id);
+                    if ui.button("Load file").clicked() {
+                        commands.push(Command::LoadFile);
+                    }
+                });
+                ui.end_row();
+                ui.label("");
+                self.protocol_summary(ui);
+                ui.end_row();
+                let label = ui.label("Participant id");
+                ui.horizontal(|ui| {
+                    ui.add(egui::TextEdit::singleline(&mut self.participant).desired_width(200.0))
+                        .labelled_by(label.id);
+                    let id = self.participant.trim();
+                    if !id.is_empty()
+                        && let Err(m) = check_participant(id)
+                    {
+                        ui.label(RichText::new(m).color(ERROR_RED));
+                    }
+                });
+                ui.end_row();
+                let label = ui.label("Output folder");
+                ui.add(egui::TextEdit::singleline(&mut self.out).desired_width(420.0))
+                    .labelled_by(label.id);
+                ui.end_row();
+                let label = ui.label("Plan seed");
+                ui.horizontal(|ui| {
+                    ui.add(egui::TextEdit::singleline(&mut self.seed).desired_width(200.0))
+                        .labelled_by(label.id);
+                    ui.label(RichText::new("empty: drawn at random and logged").weak());
+                });
+                ui.end_row();
+                ui.label("Device");
+                self.device_picker(ui, &mut commands);
+                ui.end_row();
+                ui.label("Session");
+                self.session_choice(ui, &mut commands);
+                ui.end_row();
+            });
+        commands
+    }
+
+    /// The loaded protocol in one line, or its errors.
+    fn protocol_summary(&self, ui: &mut egui::Ui) {
+        match &self.loaded {
+            Ok(l) => {
+                ui.label(format!(
+                    "{}: {} ({}, {} trials per session)",
+                    l.label,
+                    l.protocol.title,
+                    l.protocol.design.kind().as_str(),
+                    l.trials
+                ));
+            }
+            Err(errors) => {
+                ui.vertical(|ui| {
+                    for e in errors {
+                        ui.label(RichText::new(e).monospace().color(ERROR_RED));
+                    }
+                });
+            }
+        }
+    }
+
+    fn device_picker(&mut self, ui: &mut egui::Ui, commands: &mut Vec<Command>) {
+        ui.vertical(|ui| {
+            ui.radio_value(
+                &mut self.device,
+                DeviceChoice::Simulated,
+                "Simulated device (the mouse is the hand)",
+            );
+            ui.horizontal(|ui| {
+                let on_port = matches!(self.device, DeviceChoice::Port(_));
+                if ui.radio(on_port, "Serial port").clicked() && !on_port {
+                    let first = self
+                        .ports
+                        .as_ref()
+                        .ok()
+                        .and_then(|p| p.first())
+                        .map(|p| PathBuf::from(&p.path))
+                        .unwrap_or_default();
+                    self.device = DeviceChoice::Port(first);
+                }
+                let current = match &self.device {
+                    DeviceChoice::Port(p) => p.display().to_string(),
+                    DeviceChoice::Simulated => String::new(),
+                };
+                egui::ComboBox::from_label("port")
+                    .selected_text(if current.is_empty() {
+                        "(none)".into()
+                    } else {
+                        current
+                    })
+                    .show_ui(ui, |ui| {
+                        if let Ok(ports) = &self.ports {
+                            for p in ports {
+                                let text = format!("{}  {}", p.path, p.kind);
+                                if ui.selectable_label(false, text).clicked() {
+                                    self.device = DeviceChoice::Port(PathBuf::from(&p.path));
+                                }
+                            }
+                        }
+                    });
+                if ui.button("Refresh ports").clicked() {
+                    commands.push(Command::RefreshPorts);
+                }
+                match &self.ports {
+                    Ok(p) if p.is_empty() => {
+                        ui.label(RichText::new("no serial ports found").weak());
+                    }
+                    Ok(_) => {}
+                    Err(e) => {
+                        ui.label(RichText::new(format!("cannot list ports: {e}")).weak());
+                    }
+                }
+            });
+        });
+    }
+
+    /// The participant's sessions so far, and the Start and Resume buttons.
+    /// (The setup is shown only while no session is open.)
+    fn session_choice(&mut self, ui: &mut egui::Ui, commands: &mut Vec<Command>) {
+        self.refresh_sessions();
+        let problems = self.start_problems();
+        ui.vertical(|ui| {
+            if let Some(info) = &self.sessions {
+                if let Some(e) = &info.error {
+                    ui.label(RichText::new(e).color(ERROR_RED));
+                }
+                if let Some((session, done, total)) = info.unfinished {
+                    ui.label(format!(
+                        "Session {session} is unfinished: {done} of {total} trials done."
+                    ));
+                    if ui
+                        .add_enabled(
+                            problems.is_empty(),
+                            egui::Button::new(format!("Resume session {session}")),
+                        )
+                        .clicked()
+                    {
+                        commands.push(Command::Start { resume: true });
+                    }
+                }
+                ui.label(format!("A new session will be session {}.", info.next));
+            }
+            let start = ui.add_enabled(
+                problems.is_empty(),
+                egui::Button::new(RichText::new("Start new session").strong()),
+            );
+            if start.clicked() {
+                commands.push(Command::Start { resume: false });
+            }
+            if !problems.is_empty() {
+                ui.label(RichText::new(format!("To start: {}.", problems.join("; "))).weak());
+            }
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, reason = "tests: a panic is a failure")]
+
+    use egui_kittest::{Harness, kittest::Queryable};
+
+    use super::*;
+
+    /// Issue 13: the setup panel only returns what was clicked; the session
+    /// opens (and its files appear) only when the app applies the command.
+    #[test]
+    fn a_start_click_is_returned_as_a_command_and_opens_nothing_itself() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("results");
+        let launch = Launch {
+            participant: "p01".into(),
+            out: out.clone(),
+            ..Launch::default()
+        };
+        let mut h = Harness::new_ui_state(
+            |ui, (panel, commands): &mut (SetupPanel, Vec<Command>)| {
+                commands.extend(panel.ui(ui));
+            },
+            (SetupPanel::new(launch), Vec::new()),
+        );
+        h.get_by_label("Start new session").click();
+        h.step();
+        h.step();
+        assert_eq!(h.state().1, vec![Command::Start { resume: false }]);
+        assert!(!out.exists(), "the panel wrote {}", out.display());
+        let live = h.state().0.start(false).unwrap();
+        assert_eq!(live.participant(), "p01");
+        assert!(out.exists());
+    }
+
+    /// Issue 13: the trials per session, now counted once at load, are
+    /// shown as before (the shipped quick protocol plans 6).
+    #[test]
+    fn the_loaded_protocol_is_shown_with_its_trials_per_session() {
+        let mut panel = SetupPanel::new(Launch::default());
+        let h = Harness::new_ui(move |ui| {
+            let _ = panel.ui(ui);
+        });
+        h.get_by_label(
+            "magnitude-quick.json: Quick magnitude estimation (magnitude_estimation, 6 trials per session)",
+        );
+    }
+}
