@@ -7,6 +7,12 @@
 //! file or port, and draws no random numbers: the same inputs give the same
 //! actions.
 //!
+//! # Kinds
+//! What every kind shares (instructions, the reference phase, breaks,
+//! experimenter prompts, aborts, the write rule) is here. A live trial of
+//! each kind is one `LiveTrial` in its own module: `magnitude.rs`,
+//! `paired.rs`, `fitts.rs` (its start, timer, inputs and logged data).
+//!
 //! # Timers
 //! The engine owns its timers, as quinn-proto does: [`Engine::poll_timeout`]
 //! says when it next wants to be woken (the end of a reference phase, a
@@ -37,36 +43,17 @@
 use std::collections::VecDeque;
 use std::sync::Arc;
 
-use schemars::JsonSchema;
-use serde::{Deserialize, Serialize};
-
 use super::plan::{Plan, PlannedTrial, TrialSpec};
 use super::{Design, Protocol};
 use crate::friction::ModelParams;
 
-/// A paired-comparison answer.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
-#[serde(rename_all = "snake_case")]
-pub enum Choice {
-    /// The stimulus presented first is nearer to the real surface.
-    First,
-    /// The stimulus presented second is nearer.
-    Second,
-    /// No difference.
-    NoDifference,
-}
+mod fitts;
+mod magnitude;
+mod paired;
+mod record;
 
-impl Choice {
-    /// `first`, `second` or `no_difference`.
-    #[must_use]
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Choice::First => "first",
-            Choice::Second => "second",
-            Choice::NoDifference => "no_difference",
-        }
-    }
-}
+pub use magnitude::parse_magnitude;
+pub use record::{Choice, Status, TrialData, TrialRecord};
 
 /// A participant's answer.
 #[derive(Debug, Clone, PartialEq)]
@@ -180,141 +167,6 @@ pub enum Action {
     Finished,
 }
 
-/// Outcome of a trial.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
-#[serde(rename_all = "snake_case")]
-pub enum Status {
-    /// Answered / all taps done.
-    Completed,
-    /// Ended early (device lost, experimenter, Fitts timeout).
-    Aborted,
-}
-
-impl Status {
-    /// `completed` or `aborted`.
-    #[must_use]
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Status::Completed => "completed",
-            Status::Aborted => "aborted",
-        }
-    }
-}
-
-/// One trial's record, as logged.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct TrialRecord {
-    /// Planned trial index (0-based presentation order).
-    pub trial: usize,
-    /// Block name.
-    pub block: String,
-    /// Block position in the session.
-    pub block_index: usize,
-    /// Practice trial (excluded from analysis).
-    pub practice: bool,
-    /// Repetition of the block's list.
-    pub repetition: u32,
-    /// Completed or aborted.
-    pub status: Status,
-    /// Why it was aborted.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub abort_reason: Option<String>,
-    /// Aborted and presented again later (this record is not final).
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub requeued: bool,
-    /// The trial's seed.
-    pub trial_seed: u64,
-    /// Session time at the trial's start, s.
-    pub started_s: f64,
-    /// Session time at its end, s.
-    pub ended_s: f64,
-    /// What was presented and answered.
-    pub data: TrialData,
-}
-
-/// The kind-specific part of a record.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
-pub enum TrialData {
-    /// Paired comparison.
-    PairedComparison {
-        /// Condition presented first.
-        first: String,
-        /// Condition presented second.
-        second: String,
-        /// The answer.
-        choice: Option<Choice>,
-        /// The chosen condition id, or `no_difference`.
-        chosen: Option<String>,
-    },
-    /// Magnitude estimation.
-    MagnitudeEstimation {
-        /// Display name.
-        display: String,
-        /// Static coefficient.
-        mu_s: f64,
-        /// Kinetic coefficient.
-        mu_k: f64,
-        /// mu_s - mu_k.
-        delta_mu: f64,
-        /// The number given.
-        magnitude: Option<f64>,
-        /// Time from the start of the stimulus to the answer, s.
-        response_time_s: Option<f64>,
-    },
-    /// Fitts test.
-    Fitts {
-        /// Condition id.
-        condition: String,
-        /// A, m.
-        amplitude_m: f64,
-        /// W, m.
-        width_m: f64,
-        /// D, m.
-        cursor_m: f64,
-        /// W', m.
-        effective_width_m: f64,
-        /// Index of difficulty, bits.
-        id_bits: f64,
-        /// First to last hit, s.
-        completion_time_s: Option<f64>,
-        /// Hits.
-        taps: u32,
-        /// Clicks outside the lit target.
-        errors: u32,
-        /// Mean error size, m (None without errors).
-        mean_error_m: Option<f64>,
-        /// Session time of each hit, s.
-        tap_times_s: Vec<f64>,
-        /// Cursor position of each hit, m.
-        tap_x_m: Vec<f64>,
-        /// Centre of the target of each hit, m.
-        target_x_m: Vec<f64>,
-        /// Cursor position of each miss, m.
-        miss_x_m: Vec<f64>,
-    },
-}
-
-/// Checks a typed magnitude: a finite number greater than zero.
-///
-/// # Errors
-/// Why the text is refused, for the participant.
-pub fn parse_magnitude(text: &str) -> Result<f64, String> {
-    let t = text.trim();
-    if t.is_empty() {
-        return Err("please type a number".into());
-    }
-    let x: f64 = t.parse().map_err(|_| format!("'{t}' is not a number"))?;
-    if !x.is_finite() {
-        Err("please type a finite number".into())
-    } else if x <= 0.0 {
-        Err("please type a number greater than zero".into())
-    } else {
-        Ok(x)
-    }
-}
-
 #[derive(Debug, Clone)]
 enum Stage {
     Idle,
@@ -322,7 +174,7 @@ enum Stage {
     Reference { until: f64 },
     Break { until: f64 },
     Prompt,
-    Trial(Live),
+    Trial(Box<Live>),
     AwaitWrite { requeue: bool },
     Finished,
 }
@@ -333,32 +185,83 @@ struct Live {
     state: LiveState,
 }
 
-/// A live trial's state. `expired` marks an exploration whose time is up
-/// (its timeout has fired: the question is asked).
-#[derive(Debug, Clone)]
-enum LiveState {
-    Magnitude {
-        until: f64,
-        expired: bool,
-    },
-    Paired {
-        until: f64,
-        active: usize,
-        expired: bool,
-    },
-    Fitts(FittsTest),
+/// What a live trial does after an input or its timeout.
+#[derive(Debug)]
+enum Next {
+    /// Goes on.
+    Stay,
+    /// Ends, aborted for this reason or (`None`) completed.
+    Finish(Option<String>),
 }
 
-#[derive(Debug, Clone, Default)]
-struct FittsTest {
-    lit: usize,
-    centres: [f64; 2],
-    deadline: f64,
-    tap_times: Vec<f64>,
-    tap_x: Vec<f64>,
-    target_x: Vec<f64>,
-    miss_x: Vec<f64>,
-    miss_size: Vec<f64>,
+/// A trial of one kind, live: its state from start to record. Each kind's
+/// module (`magnitude.rs`, `paired.rs`, `fitts.rs`) implements it; the
+/// engine handles what every kind shares (instructions, breaks, prompts,
+/// aborts, the write rule).
+trait LiveTrial {
+    /// When the trial's timer is due, session time in s.
+    fn timeout(&self) -> Option<f64>;
+    /// The timer has fired at `now`.
+    fn on_timeout(&mut self, now: f64, out: &mut VecDeque<Action>) -> Next;
+    /// An input other than an abort, at `now`.
+    fn on_input(&mut self, now: f64, input: Input, out: &mut VecDeque<Action>) -> Next;
+    /// The data logged for the trial, ended at `now`.
+    fn data(&self, started: f64, now: f64, completed: bool) -> TrialData;
+}
+
+/// The live trial of each kind.
+#[derive(Debug, Clone)]
+enum LiveState {
+    Magnitude(magnitude::Explore),
+    Paired(Box<paired::Compare>),
+    Fitts(fitts::Tapping),
+}
+
+impl LiveState {
+    /// Starts `spec` at `now`, pushing what the shell must do.
+    fn start(spec: &TrialSpec, now: f64, out: &mut VecDeque<Action>) -> Option<Self> {
+        Some(match spec {
+            TrialSpec::MagnitudeEstimation { .. } => {
+                LiveState::Magnitude(magnitude::Explore::start(spec, now, out)?)
+            }
+            TrialSpec::PairedComparison { .. } => {
+                LiveState::Paired(Box::new(paired::Compare::start(spec, now, out)?))
+            }
+            TrialSpec::Fitts { .. } => LiveState::Fitts(fitts::Tapping::start(spec, now, out)?),
+        })
+    }
+
+    fn trial(&self) -> &dyn LiveTrial {
+        match self {
+            LiveState::Magnitude(t) => t,
+            LiveState::Paired(t) => t.as_ref(),
+            LiveState::Fitts(t) => t,
+        }
+    }
+
+    fn trial_mut(&mut self) -> &mut dyn LiveTrial {
+        match self {
+            LiveState::Magnitude(t) => t,
+            LiveState::Paired(t) => t.as_mut(),
+            LiveState::Fitts(t) => t,
+        }
+    }
+
+    fn timeout(&self) -> Option<f64> {
+        self.trial().timeout()
+    }
+
+    fn on_timeout(&mut self, now: f64, out: &mut VecDeque<Action>) -> Next {
+        self.trial_mut().on_timeout(now, out)
+    }
+
+    fn on_input(&mut self, now: f64, input: Input, out: &mut VecDeque<Action>) -> Next {
+        self.trial_mut().on_input(now, input, out)
+    }
+
+    fn data(&self, started: f64, now: f64, completed: bool) -> TrialData {
+        self.trial().data(started, now, completed)
+    }
 }
 
 /// Where a session's trials come from: the trial at each presentation
@@ -557,11 +460,7 @@ impl Engine {
     pub fn poll_timeout(&self) -> Option<f64> {
         match &self.stage {
             Stage::Reference { until } | Stage::Break { until } => Some(*until),
-            Stage::Trial(Live { state, .. }) => match state {
-                LiveState::Magnitude { until, expired }
-                | LiveState::Paired { until, expired, .. } => (!expired).then_some(*until),
-                LiveState::Fitts(t) => Some(t.deadline),
-            },
+            Stage::Trial(live) => live.state.timeout(),
             _ => None,
         }
     }
@@ -576,23 +475,10 @@ impl Engine {
         self.stage = match stage {
             Stage::Reference { .. } => self.begin_trial(now_s, false),
             Stage::Break { .. } => self.begin_trial(now_s, true),
-            Stage::Trial(mut live) => match &mut live.state {
-                LiveState::Magnitude { expired, .. } => {
-                    *expired = true;
-                    self.out.push_back(Action::Render(None));
-                    self.out.push_back(Action::Ask(Question::Magnitude));
-                    Stage::Trial(live)
-                }
-                LiveState::Paired { expired, .. } => {
-                    *expired = true;
-                    self.out.push_back(Action::Render(None));
-                    self.out.push_back(Action::Ask(Question::PairedChoice));
-                    Stage::Trial(live)
-                }
-                LiveState::Fitts(_) => {
-                    self.finish(now_s, &live, Some("timeout".into()), None, false)
-                }
-            },
+            Stage::Trial(mut live) => {
+                let next = live.state.on_timeout(now_s, &mut self.out);
+                self.after(now_s, live, next)
+            }
             stage => stage,
         };
     }
@@ -649,164 +535,37 @@ impl Engine {
     }
 
     fn start_live(&mut self, now: f64) -> Stage {
-        let Some(trial) = &self.current else {
+        let Some(state) = self
+            .current
+            .as_ref()
+            .and_then(|trial| LiveState::start(&trial.spec, now, &mut self.out))
+        else {
             return Stage::Finished;
         };
-        let state = match &trial.spec {
-            TrialSpec::MagnitudeEstimation {
-                model,
-                exploration_s,
-                ..
-            } => {
-                let until = now + exploration_s;
-                self.out.push_back(Action::Render(Some(model.clone())));
-                self.out
-                    .push_back(Action::Show(Screen::Explore { until_s: until }));
-                LiveState::Magnitude {
-                    until,
-                    expired: false,
-                }
-            }
-            TrialSpec::PairedComparison {
-                first,
-                exploration_s,
-                ..
-            } => {
-                let until = now + 2.0 * exploration_s;
-                self.out
-                    .push_back(Action::Render(Some(first.model.clone())));
-                self.out.push_back(Action::Show(Screen::Paired {
-                    active: 0,
-                    until_s: until,
-                }));
-                LiveState::Paired {
-                    until,
-                    active: 0,
-                    expired: false,
-                }
-            }
-            TrialSpec::Fitts {
-                model,
-                physical,
-                amplitude_m,
-                width_m,
-                cursor_m,
-                timeout_s,
-                ..
-            } => {
-                let t = FittsTest {
-                    lit: 0,
-                    centres: [-amplitude_m / 2.0, amplitude_m / 2.0],
-                    deadline: now + timeout_s,
-                    ..FittsTest::default()
-                };
-                self.out.push_back(Action::Physical(physical.clone()));
-                self.out.push_back(Action::Render(Some(model.clone())));
-                self.out.push_back(Action::Show(Screen::Fitts {
-                    lit_m: t.centres[0],
-                    other_m: t.centres[1],
-                    width_m: *width_m,
-                    cursor_m: *cursor_m,
-                    missed: false,
-                }));
-                LiveState::Fitts(t)
-            }
-        };
-        Stage::Trial(Live {
+        Stage::Trial(Box::new(Live {
             started: now,
             state,
-        })
+        }))
     }
 
-    fn live(&mut self, now: f64, mut live: Live, input: Input) -> Stage {
-        match (&mut live.state, input) {
-            (_, Input::Abort { reason, requeue }) => {
-                self.finish(now, &live, Some(reason), None, requeue)
-            }
-            (LiveState::Magnitude { .. }, Input::Answer(Answer::Magnitude(text))) => {
-                match parse_magnitude(&text) {
-                    Ok(x) => self.finish(now, &live, None, Some(Reply::Magnitude(x)), false),
-                    Err(why) => {
-                        self.out.push_back(Action::Refused(why));
-                        self.out.push_back(Action::Ask(Question::Magnitude));
-                        Stage::Trial(live)
-                    }
-                }
-            }
-            (LiveState::Paired { active, until, .. }, Input::Switch(i))
-                if i < 2 && now < *until =>
-            {
-                *active = i;
-                if let Some(TrialSpec::PairedComparison { first, second, .. }) =
-                    self.trial().map(|t| &t.spec)
-                {
-                    let model = if i == 0 { &first.model } else { &second.model };
-                    self.out.push_back(Action::Render(Some(model.clone())));
-                }
-                self.out.push_back(Action::Show(Screen::Paired {
-                    active: i,
-                    until_s: *until,
-                }));
-                Stage::Trial(live)
-            }
-            (LiveState::Paired { .. }, Input::Answer(Answer::Paired(c))) => {
-                self.finish(now, &live, None, Some(Reply::Paired(c)), false)
-            }
-            (LiveState::Fitts(_), Input::Click { x_m }) if x_m.is_finite() => {
-                self.click(now, live, x_m)
-            }
-            _ => Stage::Trial(live),
+    fn live(&mut self, now: f64, mut live: Box<Live>, input: Input) -> Stage {
+        if let Input::Abort { reason, requeue } = input {
+            return self.finish(now, &live, Some(reason), requeue);
         }
+        let next = live.state.on_input(now, input, &mut self.out);
+        self.after(now, live, next)
     }
 
-    fn click(&mut self, now: f64, mut live: Live, x: f64) -> Stage {
-        let Some(TrialSpec::Fitts {
-            effective_width_m,
-            width_m,
-            cursor_m,
-            taps,
-            ..
-        }) = self.trial().map(|t| t.spec.clone())
-        else {
-            return Stage::Trial(live);
-        };
-        let LiveState::Fitts(t) = &mut live.state else {
-            return Stage::Trial(live);
-        };
-        let centre = t.centres[t.lit];
-        let distance = (x - centre).abs();
-        let hit = distance <= effective_width_m / 2.0;
-        if hit {
-            t.tap_times.push(now);
-            t.tap_x.push(x);
-            t.target_x.push(centre);
-            if t.tap_times.len() >= taps as usize {
-                return self.finish(now, &live, None, None, false);
-            }
-            t.lit = 1 - t.lit;
-        } else {
-            t.miss_x.push(x);
-            t.miss_size.push(distance - effective_width_m / 2.0);
+    /// Goes on with the live trial, or ends it as its kind says.
+    fn after(&mut self, now: f64, live: Box<Live>, next: Next) -> Stage {
+        match next {
+            Next::Stay => Stage::Trial(live),
+            Next::Finish(abort) => self.finish(now, &live, abort, false),
         }
-        self.out.push_back(Action::Show(Screen::Fitts {
-            lit_m: t.centres[t.lit],
-            other_m: t.centres[1 - t.lit],
-            width_m,
-            cursor_m,
-            missed: !hit,
-        }));
-        Stage::Trial(live)
     }
 
     /// Ends the live trial: record it and wait for the write.
-    fn finish(
-        &mut self,
-        now: f64,
-        live: &Live,
-        abort: Option<String>,
-        reply: Option<Reply>,
-        requeue: bool,
-    ) -> Stage {
+    fn finish(&mut self, now: f64, live: &Live, abort: Option<String>, requeue: bool) -> Stage {
         let Some(trial) = &self.current else {
             return Stage::Finished;
         };
@@ -815,7 +574,9 @@ impl Engine {
         } else {
             Status::Completed
         };
-        let data = trial_data(&trial.spec, live, now, status, reply);
+        let data = live
+            .state
+            .data(live.started, now, status == Status::Completed);
         let record = TrialRecord {
             trial: trial.index,
             block: trial.block.clone(),
@@ -836,100 +597,4 @@ impl Engine {
         self.out.push_back(Action::Record(record));
         Stage::AwaitWrite { requeue }
     }
-}
-
-/// The kind-specific data of a trial that ends at `now`.
-fn trial_data(
-    spec: &TrialSpec,
-    live: &Live,
-    now: f64,
-    status: Status,
-    reply: Option<Reply>,
-) -> TrialData {
-    match (spec, &live.state) {
-        (TrialSpec::PairedComparison { first, second, .. }, _) => {
-            let choice = match reply {
-                Some(Reply::Paired(c)) => Some(c),
-                _ => None,
-            };
-            let chosen = choice.map(|c| match c {
-                Choice::First => first.id.clone(),
-                Choice::Second => second.id.clone(),
-                Choice::NoDifference => "no_difference".to_owned(),
-            });
-            TrialData::PairedComparison {
-                first: first.id.clone(),
-                second: second.id.clone(),
-                choice,
-                chosen,
-            }
-        }
-        (
-            TrialSpec::MagnitudeEstimation {
-                display,
-                mu_s,
-                mu_k,
-                ..
-            },
-            _,
-        ) => {
-            let magnitude = match reply {
-                Some(Reply::Magnitude(x)) => Some(x),
-                _ => None,
-            };
-            TrialData::MagnitudeEstimation {
-                display: display.clone(),
-                mu_s: *mu_s,
-                mu_k: *mu_k,
-                delta_mu: mu_s - mu_k,
-                magnitude,
-                response_time_s: magnitude.map(|_| now - live.started),
-            }
-        }
-        (
-            TrialSpec::Fitts {
-                condition,
-                amplitude_m,
-                width_m,
-                cursor_m,
-                effective_width_m,
-                id_bits,
-                ..
-            },
-            state,
-        ) => {
-            let empty = FittsTest::default();
-            let t = if let LiveState::Fitts(t) = state {
-                t
-            } else {
-                &empty
-            };
-            let errors = t.miss_size.len();
-            TrialData::Fitts {
-                condition: condition.clone(),
-                amplitude_m: *amplitude_m,
-                width_m: *width_m,
-                cursor_m: *cursor_m,
-                effective_width_m: *effective_width_m,
-                id_bits: *id_bits,
-                completion_time_s: match (t.tap_times.first(), t.tap_times.last()) {
-                    (Some(a), Some(b)) if status == Status::Completed => Some(b - a),
-                    _ => None,
-                },
-                taps: u32::try_from(t.tap_times.len()).unwrap_or(u32::MAX),
-                errors: u32::try_from(errors).unwrap_or(u32::MAX),
-                mean_error_m: (errors > 0).then(|| t.miss_size.iter().sum::<f64>() / errors as f64),
-                tap_times_s: t.tap_times.clone(),
-                tap_x_m: t.tap_x.clone(),
-                target_x_m: t.target_x.clone(),
-                miss_x_m: t.miss_x.clone(),
-            }
-        }
-    }
-}
-
-#[derive(Debug, Clone, Copy)]
-enum Reply {
-    Magnitude(f64),
-    Paired(Choice),
 }

@@ -1,0 +1,153 @@
+//! A Fitts reciprocal tapping test live (the hit and miss rules are in the
+//! engine's module docs): the condition's model is rendered, each hit
+//! switches the lit target, the test ends after its taps or at its time
+//! limit (aborted, reason `timeout`).
+
+use std::collections::VecDeque;
+
+use super::{Action, Input, LiveTrial, Next, Screen, TrialData};
+use crate::protocol::plan::TrialSpec;
+
+/// The test's geometry, copied from its trial.
+#[derive(Debug, Clone)]
+struct Geometry {
+    condition: String,
+    amplitude_m: f64,
+    width_m: f64,
+    cursor_m: f64,
+    effective_width_m: f64,
+    id_bits: f64,
+    taps: u32,
+}
+
+/// The live state.
+#[derive(Debug, Clone)]
+pub(super) struct Tapping {
+    geometry: Geometry,
+    lit: usize,
+    centres: [f64; 2],
+    deadline: f64,
+    tap_times: Vec<f64>,
+    tap_x: Vec<f64>,
+    target_x: Vec<f64>,
+    miss_x: Vec<f64>,
+    miss_size: Vec<f64>,
+}
+
+impl Tapping {
+    /// Sets the condition's physical friction, renders its model and lights
+    /// the target at `-A/2`; `None` unless `spec` is a Fitts trial.
+    pub(super) fn start(spec: &TrialSpec, now: f64, out: &mut VecDeque<Action>) -> Option<Self> {
+        let TrialSpec::Fitts {
+            condition,
+            model,
+            physical,
+            amplitude_m,
+            width_m,
+            cursor_m,
+            effective_width_m,
+            id_bits,
+            taps,
+            timeout_s,
+            ..
+        } = spec
+        else {
+            return None;
+        };
+        let t = Tapping {
+            geometry: Geometry {
+                condition: condition.clone(),
+                amplitude_m: *amplitude_m,
+                width_m: *width_m,
+                cursor_m: *cursor_m,
+                effective_width_m: *effective_width_m,
+                id_bits: *id_bits,
+                taps: *taps,
+            },
+            lit: 0,
+            centres: [-amplitude_m / 2.0, amplitude_m / 2.0],
+            deadline: now + timeout_s,
+            tap_times: Vec::new(),
+            tap_x: Vec::new(),
+            target_x: Vec::new(),
+            miss_x: Vec::new(),
+            miss_size: Vec::new(),
+        };
+        out.push_back(Action::Physical(physical.clone()));
+        out.push_back(Action::Render(Some(model.clone())));
+        out.push_back(t.screen(false));
+        Some(t)
+    }
+
+    fn screen(&self, missed: bool) -> Action {
+        Action::Show(Screen::Fitts {
+            lit_m: self.centres[self.lit],
+            other_m: self.centres[1 - self.lit],
+            width_m: self.geometry.width_m,
+            cursor_m: self.geometry.cursor_m,
+            missed,
+        })
+    }
+
+    fn click(&mut self, now: f64, x: f64, out: &mut VecDeque<Action>) -> Next {
+        let half = self.geometry.effective_width_m / 2.0;
+        let centre = self.centres[self.lit];
+        let distance = (x - centre).abs();
+        let hit = distance <= half;
+        if hit {
+            self.tap_times.push(now);
+            self.tap_x.push(x);
+            self.target_x.push(centre);
+            if self.tap_times.len() >= self.geometry.taps as usize {
+                return Next::Finish(None);
+            }
+            self.lit = 1 - self.lit;
+        } else {
+            self.miss_x.push(x);
+            self.miss_size.push(distance - half);
+        }
+        out.push_back(self.screen(!hit));
+        Next::Stay
+    }
+}
+
+impl LiveTrial for Tapping {
+    fn timeout(&self) -> Option<f64> {
+        Some(self.deadline)
+    }
+
+    fn on_timeout(&mut self, _now: f64, _out: &mut VecDeque<Action>) -> Next {
+        Next::Finish(Some("timeout".into()))
+    }
+
+    fn on_input(&mut self, now: f64, input: Input, out: &mut VecDeque<Action>) -> Next {
+        match input {
+            Input::Click { x_m } if x_m.is_finite() => self.click(now, x_m, out),
+            _ => Next::Stay,
+        }
+    }
+
+    fn data(&self, _started: f64, _now: f64, completed: bool) -> TrialData {
+        let g = &self.geometry;
+        let errors = self.miss_size.len();
+        TrialData::Fitts {
+            condition: g.condition.clone(),
+            amplitude_m: g.amplitude_m,
+            width_m: g.width_m,
+            cursor_m: g.cursor_m,
+            effective_width_m: g.effective_width_m,
+            id_bits: g.id_bits,
+            completion_time_s: match (self.tap_times.first(), self.tap_times.last()) {
+                (Some(a), Some(b)) if completed => Some(b - a),
+                _ => None,
+            },
+            taps: u32::try_from(self.tap_times.len()).unwrap_or(u32::MAX),
+            errors: u32::try_from(errors).unwrap_or(u32::MAX),
+            mean_error_m: (errors > 0).then(|| self.miss_size.iter().sum::<f64>() / errors as f64),
+            tap_times_s: self.tap_times.clone(),
+            tap_x_m: self.tap_x.clone(),
+            target_x_m: self.target_x.clone(),
+            miss_x_m: self.miss_x.clone(),
+        }
+    }
+}

@@ -1,0 +1,108 @@
+//! A magnitude-estimation trial live: the stimulus is rendered until the
+//! exploration time is up (then the question is asked), and any time until
+//! then the participant may type a number.
+
+use std::collections::VecDeque;
+
+use super::{Action, Answer, Input, LiveTrial, Next, Question, Screen, TrialData};
+use crate::protocol::plan::TrialSpec;
+
+/// Checks a typed magnitude: a finite number greater than zero.
+///
+/// # Errors
+/// Why the text is refused, for the participant.
+pub fn parse_magnitude(text: &str) -> Result<f64, String> {
+    let t = text.trim();
+    if t.is_empty() {
+        return Err("please type a number".into());
+    }
+    let x: f64 = t.parse().map_err(|_| format!("'{t}' is not a number"))?;
+    if !x.is_finite() {
+        Err("please type a finite number".into())
+    } else if x <= 0.0 {
+        Err("please type a number greater than zero".into())
+    } else {
+        Ok(x)
+    }
+}
+
+/// The live state. `expired`: the exploration time is up (its timeout has
+/// fired and the question is asked).
+#[derive(Debug, Clone)]
+pub(super) struct Explore {
+    display: String,
+    mu_s: f64,
+    mu_k: f64,
+    until: f64,
+    expired: bool,
+    magnitude: Option<f64>,
+}
+
+impl Explore {
+    /// Renders the stimulus's model and shows the exploration screen until
+    /// `now + exploration_s`; `None` unless `spec` is a magnitude trial.
+    pub(super) fn start(spec: &TrialSpec, now: f64, out: &mut VecDeque<Action>) -> Option<Self> {
+        let TrialSpec::MagnitudeEstimation {
+            display,
+            model,
+            mu_s,
+            mu_k,
+            exploration_s,
+        } = spec
+        else {
+            return None;
+        };
+        let until = now + exploration_s;
+        out.push_back(Action::Render(Some(model.clone())));
+        out.push_back(Action::Show(Screen::Explore { until_s: until }));
+        Some(Explore {
+            display: display.clone(),
+            mu_s: *mu_s,
+            mu_k: *mu_k,
+            until,
+            expired: false,
+            magnitude: None,
+        })
+    }
+}
+
+impl LiveTrial for Explore {
+    fn timeout(&self) -> Option<f64> {
+        (!self.expired).then_some(self.until)
+    }
+
+    fn on_timeout(&mut self, _now: f64, out: &mut VecDeque<Action>) -> Next {
+        self.expired = true;
+        out.push_back(Action::Render(None));
+        out.push_back(Action::Ask(Question::Magnitude));
+        Next::Stay
+    }
+
+    fn on_input(&mut self, _now: f64, input: Input, out: &mut VecDeque<Action>) -> Next {
+        let Input::Answer(Answer::Magnitude(text)) = input else {
+            return Next::Stay;
+        };
+        match parse_magnitude(&text) {
+            Ok(x) => {
+                self.magnitude = Some(x);
+                Next::Finish(None)
+            }
+            Err(why) => {
+                out.push_back(Action::Refused(why));
+                out.push_back(Action::Ask(Question::Magnitude));
+                Next::Stay
+            }
+        }
+    }
+
+    fn data(&self, started: f64, now: f64, _completed: bool) -> TrialData {
+        TrialData::MagnitudeEstimation {
+            display: self.display.clone(),
+            mu_s: self.mu_s,
+            mu_k: self.mu_k,
+            delta_mu: self.mu_s - self.mu_k,
+            magnitude: self.magnitude,
+            response_time_s: self.magnitude.map(|_| now - started),
+        }
+    }
+}

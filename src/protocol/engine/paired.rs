@@ -1,0 +1,94 @@
+//! A paired-comparison trial live: the first stimulus is rendered, the
+//! participant switches between the two until the exploration time (twice
+//! each stimulus's) is up, then chooses; a choice may come at any time.
+
+use std::collections::VecDeque;
+
+use super::{Action, Answer, Choice, Input, LiveTrial, Next, Question, Screen, TrialData};
+use crate::protocol::Condition;
+use crate::protocol::plan::TrialSpec;
+
+/// The live state. `expired`: the exploration time is up (its timeout has
+/// fired and the question is asked).
+#[derive(Debug, Clone)]
+pub(super) struct Compare {
+    conditions: [Condition; 2],
+    until: f64,
+    active: usize,
+    expired: bool,
+    choice: Option<Choice>,
+}
+
+impl Compare {
+    /// Renders the first stimulus and shows the comparison screen until
+    /// `now + 2 exploration_s`; `None` unless `spec` is a paired trial.
+    pub(super) fn start(spec: &TrialSpec, now: f64, out: &mut VecDeque<Action>) -> Option<Self> {
+        let TrialSpec::PairedComparison {
+            first,
+            second,
+            exploration_s,
+        } = spec
+        else {
+            return None;
+        };
+        let until = now + 2.0 * exploration_s;
+        out.push_back(Action::Render(Some(first.model.clone())));
+        out.push_back(Action::Show(Screen::Paired {
+            active: 0,
+            until_s: until,
+        }));
+        Some(Compare {
+            conditions: [first.clone(), second.clone()],
+            until,
+            active: 0,
+            expired: false,
+            choice: None,
+        })
+    }
+}
+
+impl LiveTrial for Compare {
+    fn timeout(&self) -> Option<f64> {
+        (!self.expired).then_some(self.until)
+    }
+
+    fn on_timeout(&mut self, _now: f64, out: &mut VecDeque<Action>) -> Next {
+        self.expired = true;
+        out.push_back(Action::Render(None));
+        out.push_back(Action::Ask(Question::PairedChoice));
+        Next::Stay
+    }
+
+    fn on_input(&mut self, now: f64, input: Input, out: &mut VecDeque<Action>) -> Next {
+        match input {
+            Input::Switch(i) if i < 2 && now < self.until => {
+                self.active = i;
+                out.push_back(Action::Render(Some(self.conditions[i].model.clone())));
+                out.push_back(Action::Show(Screen::Paired {
+                    active: i,
+                    until_s: self.until,
+                }));
+                Next::Stay
+            }
+            Input::Answer(Answer::Paired(c)) => {
+                self.choice = Some(c);
+                Next::Finish(None)
+            }
+            _ => Next::Stay,
+        }
+    }
+
+    fn data(&self, _started: f64, _now: f64, _completed: bool) -> TrialData {
+        let [first, second] = &self.conditions;
+        TrialData::PairedComparison {
+            first: first.id.clone(),
+            second: second.id.clone(),
+            choice: self.choice,
+            chosen: self.choice.map(|c| match c {
+                Choice::First => first.id.clone(),
+                Choice::Second => second.id.clone(),
+                Choice::NoDifference => "no_difference".to_owned(),
+            }),
+        }
+    }
+}
