@@ -128,14 +128,11 @@ impl ResultsDir {
             let Ok(n) = n.parse::<u32>() else { continue };
             let header = read_header(&path)?;
             if header.participant != participant {
-                return Err(ResultsError::input(
-                    "--participant",
-                    format!(
-                        "'{participant}' collides with participant '{}' in file names ({}); choose another id",
-                        header.participant,
-                        file_key(participant)
-                    ),
-                ));
+                return Err(ResultsError::Collision {
+                    participant: participant.to_owned(),
+                    other: header.participant,
+                    key: file_key(participant),
+                });
             }
             out.push(self.files(protocol_id, participant, n));
         }

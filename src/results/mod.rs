@@ -28,8 +28,6 @@ mod session_log;
 use std::io;
 use std::path::Path;
 
-use crate::problem::Problem;
-
 pub use atomic::replace_file;
 pub use export::{
     COMMON_COLUMNS, data_csv, kind_columns, kinds_present, write_dataset_description,
@@ -43,10 +41,19 @@ pub use session_log::{
 /// Why a results operation failed.
 #[derive(Debug, thiserror::Error)]
 pub enum ResultsError {
-    /// Bad input from the user (exit 2): `place: message`, the place a flag
-    /// or file.
-    #[error("{0}")]
-    Input(Problem),
+    /// A participant id whose file names are another participant's (ids
+    /// differing only in `-` and `_`): bad input (exit 2).
+    #[error(
+        "'{participant}' collides with participant '{other}' in file names ({key}); choose another id"
+    )]
+    Collision {
+        /// The id asked for.
+        participant: String,
+        /// The id already in the folder.
+        other: String,
+        /// The file-name key both give.
+        key: String,
+    },
     /// An unreadable or malformed log.
     #[error("{path}: {line}:{column}: {message}")]
     Log {
@@ -67,14 +74,6 @@ pub enum ResultsError {
         /// The error.
         source: io::Error,
     },
-}
-
-impl ResultsError {
-    /// Bad input at `place` (a flag or file).
-    #[must_use]
-    pub fn input(place: impl Into<String>, message: impl Into<String>) -> Self {
-        ResultsError::Input(Problem::new(place, message))
-    }
 }
 
 fn io_err(path: &Path) -> impl FnOnce(io::Error) -> ResultsError + '_ {

@@ -286,24 +286,20 @@ pub(super) enum Log {
 impl Log {
     /// Opens planned files, writing the notes that waited; open files stay.
     pub(super) fn open(&mut self) -> Result<&mut OpenLog, ResultsError> {
-        if let Log::Planned {
-            planned,
-            dir,
-            notes,
-        } = self
-        {
-            let mut open = planned.open(dir)?;
-            for text in notes.drain(..) {
-                open.log.append(&LogLine::Note { text })?;
-            }
-            *self = Log::Open(Box::new(open));
-        }
         match self {
             Log::Open(open) => Ok(open),
-            Log::Planned { .. } => Err(ResultsError::input(
-                "session",
-                "the session's files are not open",
-            )),
+            Log::Planned {
+                planned,
+                dir,
+                notes,
+            } => {
+                let mut open = planned.open(dir)?;
+                for text in notes.drain(..) {
+                    open.log.append(&LogLine::Note { text })?;
+                }
+                *self = Log::Open(Box::new(open));
+                self.open()
+            }
         }
     }
 

@@ -1,0 +1,387 @@
+//! The command line: parses arguments, calls the library, and is the one place
+//! that turns errors into `error: <where>: <what>` lines and exit codes.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+use crate::friction::{ForceLimit, ModelParams};
+use crate::protocol::{Protocol, load};
+use crate::render;
+use crate::results::{self, ResultsError};
+// A problem with the user's input is the library's one `Problem`, printed by
+// `finish` as `error: <place>: <message>`.
+use crate::problem::Problem as UserError;
+use crate::scenario::{self, ScenarioError, ScenarioParams};
+use crate::session::{self, DeviceChoice, SessionError};
+use crate::settings;
+
+mod commands;
+
+use commands::{
+    analyze_command, emulator_command, gui_command, identify_command, models_json, ports_command,
+    render_command, run_command, simulate_command, validate_command,
+};
+
+/// `--device`: `sim` (the simulated apparatus) or a serial port's path.
+/// Whether the path is a port is checked with the other options
+/// ([`check_run_args`]), so every problem is reported at once.
+#[expect(
+    clippy::unnecessary_wraps,
+    reason = "clap's value_parser takes a fallible function"
+)]
+fn parse_device(text: &str) -> Result<DeviceChoice, String> {
+    Ok(if text == "sim" {
+        DeviceChoice::Simulated
+    } else {
+        DeviceChoice::Port(PathBuf::from(text))
+    })
+}
+
+/// `--responder`: who answers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum ResponderChoice {
+    /// A person, in the experimenter window.
+    Gui,
+    /// A simulated participant.
+    Sim,
+}
+
+/// Exit code for bad input (a flag, a parameter, a file).
+pub const EXIT_BAD_INPUT: u8 = 2;
+
+/// Renders friction on a haptic device, runs friction-perception experiments
+/// and analyses them.
+#[derive(Debug, Parser)]
+#[command(name = "frictionlab", version)]
+pub struct Cli {
+    /// Without a command: the experimenter window (`gui`).
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+/// `frictionlab gui` options: what the window opens with.
+#[derive(Debug, clap::Args)]
+struct GuiArgs {
+    /// A protocol file (default: the first shipped protocol).
+    #[arg(long)]
+    protocol: Option<PathBuf>,
+    /// Participant id.
+    #[arg(long, default_value = "")]
+    participant: String,
+    /// Results folder.
+    #[arg(long, default_value = "results")]
+    out: PathBuf,
+    /// `sim` (the simulated device) or a serial port's path.
+    #[arg(long, default_value = "sim", value_parser = parse_device)]
+    device: DeviceChoice,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Checks protocol files; exit 0 if all are valid.
+    Validate {
+        /// Protocol files.
+        #[arg(required = true)]
+        protocols: Vec<PathBuf>,
+    },
+    /// Opens the experimenter window (the default without a command).
+    Gui(GuiArgs),
+    /// Runs one session (headless with `--device sim --responder sim`).
+    Run(RunArgs),
+    /// Runs N whole sessions with simulated participants on the simulated
+    /// device.
+    Simulate(SimulateArgs),
+    /// Reads a results folder and writes summary.json, report.html and the
+    /// tables (CSV and Parquet).
+    Analyze {
+        /// The results folder.
+        dir: PathBuf,
+        /// Where to write the report (default: DIR/report).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Fits friction parameters to recorded motion and force (seed 002);
+    /// prints JSON with a `protocol_model` block for a protocol.
+    Identify(IdentifyArgs),
+    /// Lists serial ports.
+    Ports,
+    /// Runs an emulated device (the simulated apparatus) on a serial port,
+    /// or on a new pseudo-terminal linked at PATH if nothing is there (a
+    /// link an earlier emulator left, to a pseudo-terminal now gone, is
+    /// replaced). It stays silent until a host says Hello, and serves host
+    /// after host until stopped.
+    DeviceEmulator {
+        /// A serial port (or a link to one, left in place), or where to link
+        /// a new pseudo-terminal.
+        path: PathBuf,
+    },
+    /// Prints a JSON Schema: of protocol files, or of session log lines.
+    Schema {
+        /// `protocol` or `log`.
+        #[arg(value_parser = ["protocol", "log"])]
+        which: String,
+    },
+    /// Runs one friction model through a scripted scenario and writes the time
+    /// series (CSV) and optionally its figure (SVG).
+    Render(RenderArgs),
+    /// Lists the friction models and scenarios with their default parameters
+    /// (the names `render --set` accepts), as JSON.
+    Models,
+}
+
+#[derive(Debug, clap::Args)]
+struct RunArgs {
+    /// The protocol file.
+    protocol: PathBuf,
+    /// Participant id: letters, digits, '-' and '_'.
+    #[arg(long)]
+    participant: String,
+    /// Results folder.
+    #[arg(long)]
+    out: PathBuf,
+    /// `sim` (the simulated apparatus) or a serial port path.
+    #[arg(long, default_value = "sim", value_parser = parse_device)]
+    device: DeviceChoice,
+    /// Who answers: `gui` (a person) or `sim` (a simulated participant).
+    #[arg(long, value_enum, default_value_t = ResponderChoice::Gui)]
+    responder: ResponderChoice,
+    /// Plan seed (default: drawn at random and logged).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Continue the participant's last unfinished session.
+    #[arg(long)]
+    resume: bool,
+    /// Simulated time runs X times faster than real time (default 1).
+    #[arg(long, default_value_t = 1.0)]
+    pace: f64,
+    /// Counterbalancing index (default: participants already in the folder).
+    #[arg(long)]
+    participant_index: Option<u32>,
+    /// With a device: give up (exit 3) after it has not answered for this
+    /// long, s.
+    #[arg(long, default_value_t = 10.0)]
+    device_timeout: f64,
+}
+
+#[derive(Debug, clap::Args)]
+struct IdentifyArgs {
+    /// CSV with t_s, x_m and/or v_m_s, optional a_m_s2, and applied_force_n
+    /// (or force_n, the force on the hand): a render of the servo-sinusoid
+    /// scenario or a session's device stream reads as it is.
+    data: PathBuf,
+    /// `karnopp` or `dahl`.
+    #[arg(long)]
+    model: String,
+    /// Zero-velocity band DV: samples with |v| <= DV are left out, m/s.
+    /// The default, 0.03, also leaves out the presliding around reversals
+    /// (see `frictionlab::identify::DEFAULT_DV_M_S`).
+    #[arg(long, default_value_t = crate::identify::DEFAULT_DV_M_S)]
+    dv: f64,
+    /// Velocity noise SD for the errors-in-variables correction, m/s
+    /// (default: estimated from the data; give both SDs or neither).
+    #[arg(long)]
+    vel_sd: Option<f64>,
+    /// Acceleration noise SD for the errors-in-variables correction, m/s^2.
+    #[arg(long)]
+    acc_sd: Option<f64>,
+    /// Dahl: the fixed rest stiffness sigma, N/m.
+    #[arg(long, default_value_t = 2e4)]
+    sigma: f64,
+    /// Dahl: the fixed shape exponent.
+    #[arg(long, default_value_t = 1.0)]
+    exponent: f64,
+}
+
+#[derive(Debug, clap::Args)]
+struct SimulateArgs {
+    /// The protocol file.
+    protocol: PathBuf,
+    /// Number of simulated participants (ids sim-001, sim-002, ...).
+    #[arg(long)]
+    participants: u32,
+    /// Study seed: participant i's plan seed and traits derive from it.
+    #[arg(long)]
+    seed: u64,
+    /// Results folder.
+    #[arg(long)]
+    out: PathBuf,
+    /// Simulated time runs X times faster than real time (default: as fast
+    /// as possible).
+    #[arg(long)]
+    pace: Option<f64>,
+    /// Record each trial's device stream in `streams/` (as `run` and the
+    /// window always do; off by default here: a whole simulated study at
+    /// 5 kHz is gigabytes).
+    #[arg(long)]
+    streams: bool,
+    /// Sessions run at once, one per thread (default: every core; 1 with
+    /// `--pace`). The files are the same byte for byte for any number.
+    #[arg(long)]
+    jobs: Option<usize>,
+}
+
+#[derive(Debug, clap::Args)]
+struct RenderArgs {
+    /// Friction model: god-object-constant, god-object-time-varying,
+    /// stick-slip-tactile, stick-slip-force, karnopp, dahl, viscous, none.
+    #[arg(long)]
+    model: String,
+    /// Scenario: spidar-slide, sinusoidal-stroke, coupled-block.
+    #[arg(long)]
+    scenario: String,
+    /// Override a parameter: a model parameter (`mu_s=1.2`), a scenario
+    /// parameter (`scenario.slide_speed_m_s=0.05`), the step rate
+    /// (`rate_hz=5000`; default: the model's loop rate) or the device's force
+    /// limit (`force_limit_n=9.48`). Repeatable.
+    #[arg(long = "set", value_name = "NAME=VALUE")]
+    set: Vec<String>,
+    /// The time series, CSV.
+    #[arg(long)]
+    out: PathBuf,
+    /// A figure of force (and vibration) over time, SVG.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+}
+
+/// Runs the command line and returns the process exit code.
+#[must_use]
+pub fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            // clap prints help/version to stdout (exit 0) and usage errors
+            // to stderr (exit 2).
+            let _ = e.print();
+            return ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(EXIT_BAD_INPUT));
+        }
+    };
+    let Some(command) = cli.command else {
+        return finish(gui_command(
+            GuiArgs {
+                protocol: None,
+                participant: String::new(),
+                out: PathBuf::from("results"),
+                device: DeviceChoice::Simulated,
+            },
+            None,
+        ));
+    };
+    let result = match command {
+        Command::Gui(args) => gui_command(args, None),
+        Command::Validate { protocols } => validate_command(&protocols),
+        Command::Run(args) => run_command(&args),
+        Command::Simulate(args) => simulate_command(&args),
+        Command::Analyze { dir, out } => analyze_command(&dir, out.as_deref()),
+        Command::Identify(args) => identify_command(&args),
+        Command::Ports => ports_command(),
+        Command::DeviceEmulator { path } => emulator_command(&path),
+        Command::Schema { which } => emit(&if which == "log" {
+            crate::results::log_json_schema()
+        } else {
+            crate::protocol::json_schema()
+        }),
+        Command::Render(args) => render_command(&args),
+        Command::Models => emit(&format!("{}\n", models_json())),
+    };
+    finish(result)
+}
+
+fn finish(result: Result<(), Failure>) -> ExitCode {
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(failure) => {
+            for e in failure.errors {
+                say(&format!("error: {e}"));
+            }
+            ExitCode::from(failure.code)
+        }
+    }
+}
+
+/// Exit code for an unexpected failure (an I/O error writing results).
+pub const EXIT_FAILURE: u8 = 1;
+
+/// Writes `text` to standard output. A reader that went away
+/// (`frictionlab ... | head`) is not an error: the rest is dropped and the
+/// command finishes its work (exit 0). Any other write error (a full disk
+/// behind `>`) is a failure, exit 1.
+fn emit(text: &str) -> Result<(), Failure> {
+    use std::io::Write as _;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(Failure {
+            code: EXIT_FAILURE,
+            errors: vec![UserError::new("stdout", e.to_string())],
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// Writes a line to standard error; a closed or broken standard error has
+/// nowhere left to be reported, so it is ignored.
+fn say(line: &str) {
+    use std::io::Write as _;
+    let _ = writeln!(std::io::stderr().lock(), "{line}");
+}
+
+/// Errors to print and the exit code.
+struct Failure {
+    code: u8,
+    errors: Vec<UserError>,
+}
+
+impl From<Vec<UserError>> for Failure {
+    fn from(errors: Vec<UserError>) -> Self {
+        Failure {
+            code: EXIT_BAD_INPUT,
+            errors,
+        }
+    }
+}
+
+impl From<SessionError> for Failure {
+    fn from(e: SessionError) -> Self {
+        match e {
+            SessionError::Results(e) => e.into(),
+            SessionError::NothingToResume { .. } | SessionError::Ended { .. } => {
+                vec![UserError::new("--resume", e.to_string())].into()
+            }
+            SessionError::Lost { .. }
+            | SessionError::NeverConnected { .. }
+            | SessionError::Loop(_) => device_failure("--device", e.to_string()),
+        }
+    }
+}
+
+impl From<ResultsError> for Failure {
+    fn from(e: ResultsError) -> Self {
+        match e {
+            ResultsError::Collision { .. } => {
+                vec![UserError::new("--participant", e.to_string())].into()
+            }
+            ResultsError::Log {
+                path,
+                line,
+                column,
+                message,
+            } => vec![UserError::new(path, format!("{line}:{column}: {message}"))].into(),
+            ResultsError::Io { path, source } => Failure {
+                code: EXIT_FAILURE,
+                errors: vec![UserError::new(path, source.to_string())],
+            },
+        }
+    }
+}
+
+/// Exit code for a device problem the command could not ride out.
+pub const EXIT_DEVICE: u8 = 3;
+
+fn device_failure(place: &str, message: impl Into<String>) -> Failure {
+    Failure {
+        code: EXIT_DEVICE,
+        errors: vec![UserError::new(place, message)],
+    }
+}
