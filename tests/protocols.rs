@@ -283,12 +283,7 @@ fn order(p: &Protocol, seed: u64, participant: u32) -> Vec<String> {
                 mu_k,
                 ..
             } => format!("{display}:{mu_s}:{mu_k}"),
-            TrialSpec::Fitts {
-                condition,
-                amplitude_m,
-                width_m,
-                ..
-            } => format!("{condition}:{amplitude_m}:{width_m}"),
+            TrialSpec::Fitts(f) => format!("{}:{}:{}", f.condition, f.amplitude_m, f.width_m),
             TrialSpec::PairedComparison { first, second, .. } => {
                 format!("{}>{}", first.id, second.id)
             }

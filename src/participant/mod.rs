@@ -321,9 +321,7 @@ impl SimParticipant {
         missed: bool,
     ) -> Reaction {
         let w_eff = match trial.map(|t| &t.spec) {
-            Some(TrialSpec::Fitts {
-                effective_width_m, ..
-            }) => *effective_width_m,
+            Some(TrialSpec::Fitts(f)) => f.effective_width_m,
             _ => width - cursor,
         };
         if let Behaviour::Tap(t) = &mut self.behaviour {

@@ -86,30 +86,34 @@ pub enum TrialSpec {
         exploration_s: f64,
     },
     /// One reciprocal tapping test.
-    Fitts {
-        /// Condition id.
-        condition: String,
-        /// The rendered model.
-        model: ModelParams,
-        /// Experimenter prompt before the test.
-        prompt: Option<String>,
-        /// Physical friction of the condition (simulated device only).
-        physical: Option<ModelParams>,
-        /// Distance between target centres A, m.
-        amplitude_m: f64,
-        /// Target width W, m.
-        width_m: f64,
-        /// Cursor diameter D, m.
-        cursor_m: f64,
-        /// Width that counts for hits, W' (W - D or W), m.
-        effective_width_m: f64,
-        /// Index of difficulty, bits.
-        id_bits: f64,
-        /// Successful taps to complete the test.
-        taps: u32,
-        /// Longest duration of the test, s.
-        timeout_s: f64,
-    },
+    Fitts(FittsTrial),
+}
+
+/// One reciprocal tapping test of a Fitts study.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FittsTrial {
+    /// Condition id.
+    pub condition: String,
+    /// The rendered model.
+    pub model: ModelParams,
+    /// Experimenter prompt before the test.
+    pub prompt: Option<String>,
+    /// Physical friction of the condition (simulated device only).
+    pub physical: Option<ModelParams>,
+    /// Distance between target centres A, m.
+    pub amplitude_m: f64,
+    /// Target width W, m.
+    pub width_m: f64,
+    /// Cursor diameter D, m.
+    pub cursor_m: f64,
+    /// Width that counts for hits, W' (W - D or W), m.
+    pub effective_width_m: f64,
+    /// Index of difficulty, bits.
+    pub id_bits: f64,
+    /// Successful taps to complete the test.
+    pub taps: u32,
+    /// Longest duration of the test, s.
+    pub timeout_s: f64,
 }
 
 impl TrialSpec {
@@ -119,7 +123,7 @@ impl TrialSpec {
         match self {
             TrialSpec::PairedComparison { .. } => Kind::PairedComparison,
             TrialSpec::MagnitudeEstimation { .. } => Kind::MagnitudeEstimation,
-            TrialSpec::Fitts { .. } => Kind::Fitts,
+            TrialSpec::Fitts(_) => Kind::Fitts,
         }
     }
 }
@@ -239,18 +243,20 @@ fn blocks(p: &Protocol) -> Vec<BlockDraft> {
             })
             .collect(),
         Design::Fitts(d) => {
-            let test = |c: &super::FittsCondition, l: super::FittsLevel| TrialSpec::Fitts {
-                condition: c.id.clone(),
-                model: c.model.clone(),
-                prompt: c.prompt.clone(),
-                physical: c.physical.clone(),
-                amplitude_m: l.amplitude_m,
-                width_m: l.width_m,
-                cursor_m: d.cursor_m,
-                effective_width_m: d.effective_width(l.width_m),
-                id_bits: d.id_bits(l),
-                taps: d.taps,
-                timeout_s: d.timeout_s,
+            let test = |c: &super::FittsCondition, l: super::FittsLevel| {
+                TrialSpec::Fitts(FittsTrial {
+                    condition: c.id.clone(),
+                    model: c.model.clone(),
+                    prompt: c.prompt.clone(),
+                    physical: c.physical.clone(),
+                    amplitude_m: l.amplitude_m,
+                    width_m: l.width_m,
+                    cursor_m: d.cursor_m,
+                    effective_width_m: d.effective_width(l.width_m),
+                    id_bits: d.id_bits(l),
+                    taps: d.taps,
+                    timeout_s: d.timeout_s,
+                })
             };
             let mut out = Vec::new();
             if !d.practice.is_empty() {

@@ -6,24 +6,12 @@
 use std::collections::VecDeque;
 
 use super::{Action, Input, LiveTrial, Next, Screen, TrialData};
-use crate::protocol::plan::TrialSpec;
-
-/// The test's geometry, copied from its trial.
-#[derive(Debug, Clone)]
-struct Geometry {
-    condition: String,
-    amplitude_m: f64,
-    width_m: f64,
-    cursor_m: f64,
-    effective_width_m: f64,
-    id_bits: f64,
-    taps: u32,
-}
+use crate::protocol::plan::{FittsTrial, TrialSpec};
 
 /// The live state.
 #[derive(Debug, Clone)]
 pub(super) struct Tapping {
-    geometry: Geometry,
+    trial: FittsTrial,
     lit: usize,
     centres: [f64; 2],
     deadline: f64,
@@ -38,43 +26,23 @@ impl Tapping {
     /// Sets the condition's physical friction, renders its model and lights
     /// the target at `-A/2`; `None` unless `spec` is a Fitts trial.
     pub(super) fn start(spec: &TrialSpec, now: f64, out: &mut VecDeque<Action>) -> Option<Self> {
-        let TrialSpec::Fitts {
-            condition,
-            model,
-            physical,
-            amplitude_m,
-            width_m,
-            cursor_m,
-            effective_width_m,
-            id_bits,
-            taps,
-            timeout_s,
-            ..
-        } = spec
-        else {
+        let TrialSpec::Fitts(trial) = spec else {
             return None;
         };
+        let a = trial.amplitude_m;
         let t = Tapping {
-            geometry: Geometry {
-                condition: condition.clone(),
-                amplitude_m: *amplitude_m,
-                width_m: *width_m,
-                cursor_m: *cursor_m,
-                effective_width_m: *effective_width_m,
-                id_bits: *id_bits,
-                taps: *taps,
-            },
+            trial: trial.clone(),
             lit: 0,
-            centres: [-amplitude_m / 2.0, amplitude_m / 2.0],
-            deadline: now + timeout_s,
+            centres: [-a / 2.0, a / 2.0],
+            deadline: now + trial.timeout_s,
             tap_times: Vec::new(),
             tap_x: Vec::new(),
             target_x: Vec::new(),
             miss_x: Vec::new(),
             miss_size: Vec::new(),
         };
-        out.push_back(Action::Physical(physical.clone()));
-        out.push_back(Action::Render(Some(model.clone())));
+        out.push_back(Action::Physical(trial.physical.clone()));
+        out.push_back(Action::Render(Some(trial.model.clone())));
         out.push_back(t.screen(false));
         Some(t)
     }
@@ -83,14 +51,14 @@ impl Tapping {
         Action::Show(Screen::Fitts {
             lit_m: self.centres[self.lit],
             other_m: self.centres[1 - self.lit],
-            width_m: self.geometry.width_m,
-            cursor_m: self.geometry.cursor_m,
+            width_m: self.trial.width_m,
+            cursor_m: self.trial.cursor_m,
             missed,
         })
     }
 
     fn click(&mut self, now: f64, x: f64, out: &mut VecDeque<Action>) -> Next {
-        let half = self.geometry.effective_width_m / 2.0;
+        let half = self.trial.effective_width_m / 2.0;
         let centre = self.centres[self.lit];
         let distance = (x - centre).abs();
         let hit = distance <= half;
@@ -98,7 +66,7 @@ impl Tapping {
             self.tap_times.push(now);
             self.tap_x.push(x);
             self.target_x.push(centre);
-            if self.tap_times.len() >= self.geometry.taps as usize {
+            if self.tap_times.len() >= self.trial.taps as usize {
                 return Next::Finish(None);
             }
             self.lit = 1 - self.lit;
@@ -128,7 +96,7 @@ impl LiveTrial for Tapping {
     }
 
     fn data(&self, _started: f64, _now: f64, completed: bool) -> TrialData {
-        let g = &self.geometry;
+        let g = &self.trial;
         let errors = self.miss_size.len();
         TrialData::Fitts {
             condition: g.condition.clone(),

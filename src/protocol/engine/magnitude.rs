@@ -4,7 +4,7 @@
 
 use std::collections::VecDeque;
 
-use super::{Action, Answer, Input, LiveTrial, Next, Question, Screen, TrialData};
+use super::{Action, Answer, Exploration, Input, LiveTrial, Next, Question, Screen, TrialData};
 use crate::protocol::plan::TrialSpec;
 
 /// Checks a typed magnitude: a finite number greater than zero.
@@ -26,15 +26,13 @@ pub fn parse_magnitude(text: &str) -> Result<f64, String> {
     }
 }
 
-/// The live state. `expired`: the exploration time is up (its timeout has
-/// fired and the question is asked).
+/// The live state; `time` asks the question when the exploration is over.
 #[derive(Debug, Clone)]
 pub(super) struct Explore {
     display: String,
     mu_s: f64,
     mu_k: f64,
-    until: f64,
-    expired: bool,
+    time: Exploration,
     magnitude: Option<f64>,
 }
 
@@ -59,8 +57,7 @@ impl Explore {
             display: display.clone(),
             mu_s: *mu_s,
             mu_k: *mu_k,
-            until,
-            expired: false,
+            time: Exploration::until(until),
             magnitude: None,
         })
     }
@@ -68,14 +65,11 @@ impl Explore {
 
 impl LiveTrial for Explore {
     fn timeout(&self) -> Option<f64> {
-        (!self.expired).then_some(self.until)
+        self.time.timeout()
     }
 
     fn on_timeout(&mut self, _now: f64, out: &mut VecDeque<Action>) -> Next {
-        self.expired = true;
-        out.push_back(Action::Render(None));
-        out.push_back(Action::Ask(Question::Magnitude));
-        Next::Stay
+        self.time.expire(Question::Magnitude, out)
     }
 
     fn on_input(&mut self, _now: f64, input: Input, out: &mut VecDeque<Action>) -> Next {

@@ -43,7 +43,7 @@
 use std::collections::VecDeque;
 use std::sync::Arc;
 
-use super::plan::{Plan, PlannedTrial, TrialSpec};
+use super::plan::{FittsTrial, Plan, PlannedTrial, TrialSpec};
 use super::{Design, Protocol};
 use crate::friction::ModelParams;
 
@@ -174,7 +174,7 @@ enum Stage {
     Reference { until: f64 },
     Break { until: f64 },
     Prompt,
-    Trial(Box<Live>),
+    Trial(Live),
     AwaitWrite { requeue: bool },
     Finished,
 }
@@ -209,12 +209,42 @@ trait LiveTrial {
     fn data(&self, started: f64, now: f64, completed: bool) -> TrialData;
 }
 
+/// An exploration with a time limit, shared by the kinds that ask a
+/// question: at `until` the stimulus stops and the question is asked (once;
+/// `expired` marks it asked).
+#[derive(Debug, Clone)]
+struct Exploration {
+    until: f64,
+    expired: bool,
+}
+
+impl Exploration {
+    fn until(until: f64) -> Self {
+        Exploration {
+            until,
+            expired: false,
+        }
+    }
+
+    fn timeout(&self) -> Option<f64> {
+        (!self.expired).then_some(self.until)
+    }
+
+    /// The time is up: render nothing and ask `question`.
+    fn expire(&mut self, question: Question, out: &mut VecDeque<Action>) -> Next {
+        self.expired = true;
+        out.push_back(Action::Render(None));
+        out.push_back(Action::Ask(question));
+        Next::Stay
+    }
+}
+
 /// The live trial of each kind.
 #[derive(Debug, Clone)]
 enum LiveState {
     Magnitude(magnitude::Explore),
     Paired(Box<paired::Compare>),
-    Fitts(fitts::Tapping),
+    Fitts(Box<fitts::Tapping>),
 }
 
 impl LiveState {
@@ -227,7 +257,9 @@ impl LiveState {
             TrialSpec::PairedComparison { .. } => {
                 LiveState::Paired(Box::new(paired::Compare::start(spec, now, out)?))
             }
-            TrialSpec::Fitts { .. } => LiveState::Fitts(fitts::Tapping::start(spec, now, out)?),
+            TrialSpec::Fitts(_) => {
+                LiveState::Fitts(Box::new(fitts::Tapping::start(spec, now, out)?))
+            }
         })
     }
 
@@ -235,7 +267,7 @@ impl LiveState {
         match self {
             LiveState::Magnitude(t) => t,
             LiveState::Paired(t) => t.as_ref(),
-            LiveState::Fitts(t) => t,
+            LiveState::Fitts(t) => t.as_ref(),
         }
     }
 
@@ -243,7 +275,7 @@ impl LiveState {
         match self {
             LiveState::Magnitude(t) => t,
             LiveState::Paired(t) => t.as_mut(),
-            LiveState::Fitts(t) => t,
+            LiveState::Fitts(t) => t.as_mut(),
         }
     }
 
@@ -296,9 +328,8 @@ impl TrialSource for Plan {
         self.trials
             .iter()
             .map(|t| match &t.spec {
-                TrialSpec::MagnitudeEstimation { model, .. } | TrialSpec::Fitts { model, .. } => {
-                    model.loop_rate_hz()
-                }
+                TrialSpec::MagnitudeEstimation { model, .. }
+                | TrialSpec::Fitts(FittsTrial { model, .. }) => model.loop_rate_hz(),
                 TrialSpec::PairedComparison { first, second, .. } => {
                     first.model.loop_rate_hz().max(second.model.loop_rate_hz())
                 }
@@ -524,9 +555,9 @@ impl Engine {
                 .push_back(Action::Show(Screen::Break { until_s: until }));
             return Stage::Break { until };
         }
-        if let TrialSpec::Fitts {
+        if let TrialSpec::Fitts(FittsTrial {
             prompt: Some(text), ..
-        } = &trial.spec
+        }) = &trial.spec
         {
             self.out.push_back(Action::Prompt(text.clone()));
             return Stage::Prompt;
@@ -542,13 +573,13 @@ impl Engine {
         else {
             return Stage::Finished;
         };
-        Stage::Trial(Box::new(Live {
+        Stage::Trial(Live {
             started: now,
             state,
-        }))
+        })
     }
 
-    fn live(&mut self, now: f64, mut live: Box<Live>, input: Input) -> Stage {
+    fn live(&mut self, now: f64, mut live: Live, input: Input) -> Stage {
         if let Input::Abort { reason, requeue } = input {
             return self.finish(now, &live, Some(reason), requeue);
         }
@@ -557,7 +588,7 @@ impl Engine {
     }
 
     /// Goes on with the live trial, or ends it as its kind says.
-    fn after(&mut self, now: f64, live: Box<Live>, next: Next) -> Stage {
+    fn after(&mut self, now: f64, live: Live, next: Next) -> Stage {
         match next {
             Next::Stay => Stage::Trial(live),
             Next::Finish(abort) => self.finish(now, &live, abort, false),

@@ -4,18 +4,18 @@
 
 use std::collections::VecDeque;
 
-use super::{Action, Answer, Choice, Input, LiveTrial, Next, Question, Screen, TrialData};
+use super::{
+    Action, Answer, Choice, Exploration, Input, LiveTrial, Next, Question, Screen, TrialData,
+};
 use crate::protocol::Condition;
 use crate::protocol::plan::TrialSpec;
 
-/// The live state. `expired`: the exploration time is up (its timeout has
-/// fired and the question is asked).
+/// The live state; `time` asks the question when the exploration is over.
 #[derive(Debug, Clone)]
 pub(super) struct Compare {
     conditions: [Condition; 2],
-    until: f64,
+    time: Exploration,
     active: usize,
-    expired: bool,
     choice: Option<Choice>,
 }
 
@@ -39,9 +39,8 @@ impl Compare {
         }));
         Some(Compare {
             conditions: [first.clone(), second.clone()],
-            until,
+            time: Exploration::until(until),
             active: 0,
-            expired: false,
             choice: None,
         })
     }
@@ -49,24 +48,21 @@ impl Compare {
 
 impl LiveTrial for Compare {
     fn timeout(&self) -> Option<f64> {
-        (!self.expired).then_some(self.until)
+        self.time.timeout()
     }
 
     fn on_timeout(&mut self, _now: f64, out: &mut VecDeque<Action>) -> Next {
-        self.expired = true;
-        out.push_back(Action::Render(None));
-        out.push_back(Action::Ask(Question::PairedChoice));
-        Next::Stay
+        self.time.expire(Question::PairedChoice, out)
     }
 
     fn on_input(&mut self, now: f64, input: Input, out: &mut VecDeque<Action>) -> Next {
         match input {
-            Input::Switch(i) if i < 2 && now < self.until => {
+            Input::Switch(i) if i < 2 && now < self.time.until => {
                 self.active = i;
                 out.push_back(Action::Render(Some(self.conditions[i].model.clone())));
                 out.push_back(Action::Show(Screen::Paired {
                     active: i,
-                    until_s: self.until,
+                    until_s: self.time.until,
                 }));
                 Next::Stay
             }
