@@ -277,16 +277,9 @@ fn order(p: &Protocol, seed: u64, participant: u32) -> Vec<String> {
         .trials
         .iter()
         .map(|t| match &t.spec {
-            TrialSpec::MagnitudeEstimation {
-                display,
-                mu_s,
-                mu_k,
-                ..
-            } => format!("{display}:{mu_s}:{mu_k}"),
+            TrialSpec::MagnitudeEstimation(m) => format!("{}:{}:{}", m.display, m.mu_s, m.mu_k),
             TrialSpec::Fitts(f) => format!("{}:{}:{}", f.condition, f.amplitude_m, f.width_m),
-            TrialSpec::PairedComparison { first, second, .. } => {
-                format!("{}>{}", first.id, second.id)
-            }
+            TrialSpec::PairedComparison(p) => format!("{}>{}", p.first.id, p.second.id),
         })
         .collect()
 }

@@ -20,7 +20,7 @@ use frictionlab::hand::HandDrive;
 use frictionlab::protocol::engine::{
     Action, Answer, Choice, Input, Question, Screen, Status, TrialData, TrialRecord, TrialSource,
 };
-use frictionlab::protocol::plan::{PlannedTrial, TrialSpec};
+use frictionlab::protocol::plan::{PairedTrial, PlannedTrial, TrialSpec};
 use frictionlab::protocol::{Condition, Protocol};
 use frictionlab::results::{ResultsDir, read_log};
 use frictionlab::session::{
@@ -105,11 +105,11 @@ impl TrialSource for Staircase {
             practice: false,
             repetition: 0,
             seed,
-            spec: TrialSpec::PairedComparison {
+            spec: TrialSpec::PairedComparison(PairedTrial {
                 first,
                 second,
                 exploration_s: 3.0,
-            },
+            }),
         })
     }
 
@@ -138,7 +138,7 @@ impl Responder for Observer {
             }
             (
                 Action::Ask(Question::PairedChoice),
-                Some(TrialSpec::PairedComparison { first, second, .. }),
+                Some(TrialSpec::PairedComparison(PairedTrial { first, second, .. })),
             ) => {
                 let (c, r) = if first.id == "comparison" {
                     (first, second)

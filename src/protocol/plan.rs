@@ -64,29 +64,37 @@ pub struct PlannedTrial {
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum TrialSpec {
     /// Two renderings, in presentation order.
-    PairedComparison {
-        /// Presented first.
-        first: Condition,
-        /// Presented second.
-        second: Condition,
-        /// Longest exploration of each, s.
-        exploration_s: f64,
-    },
+    PairedComparison(PairedTrial),
     /// One stimulus.
-    MagnitudeEstimation {
-        /// Display name.
-        display: String,
-        /// The rendered model, with the stimulus's coefficients.
-        model: ModelParams,
-        /// Static coefficient.
-        mu_s: f64,
-        /// Kinetic coefficient.
-        mu_k: f64,
-        /// Longest exploration, s.
-        exploration_s: f64,
-    },
+    MagnitudeEstimation(MagnitudeTrial),
     /// One reciprocal tapping test.
     Fitts(FittsTrial),
+}
+
+/// One paired-comparison trial: two renderings, in presentation order.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PairedTrial {
+    /// Presented first.
+    pub first: Condition,
+    /// Presented second.
+    pub second: Condition,
+    /// Longest exploration of each, s.
+    pub exploration_s: f64,
+}
+
+/// One magnitude-estimation trial: one stimulus.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MagnitudeTrial {
+    /// Display name.
+    pub display: String,
+    /// The rendered model, with the stimulus's coefficients.
+    pub model: ModelParams,
+    /// Static coefficient.
+    pub mu_s: f64,
+    /// Kinetic coefficient.
+    pub mu_k: f64,
+    /// Longest exploration, s.
+    pub exploration_s: f64,
 }
 
 /// One reciprocal tapping test of a Fitts study.
@@ -117,12 +125,24 @@ pub struct FittsTrial {
 }
 
 impl TrialSpec {
+    /// The haptic loop rate its models need, Hz (the highest of them).
+    #[must_use]
+    pub fn loop_rate_hz(&self) -> f64 {
+        match self {
+            TrialSpec::MagnitudeEstimation(MagnitudeTrial { model, .. })
+            | TrialSpec::Fitts(FittsTrial { model, .. }) => model.loop_rate_hz(),
+            TrialSpec::PairedComparison(PairedTrial { first, second, .. }) => {
+                first.model.loop_rate_hz().max(second.model.loop_rate_hz())
+            }
+        }
+    }
+
     /// The kind of trial.
     #[must_use]
     pub fn kind(&self) -> Kind {
         match self {
-            TrialSpec::PairedComparison { .. } => Kind::PairedComparison,
-            TrialSpec::MagnitudeEstimation { .. } => Kind::MagnitudeEstimation,
+            TrialSpec::PairedComparison(_) => Kind::PairedComparison,
+            TrialSpec::MagnitudeEstimation(_) => Kind::MagnitudeEstimation,
             TrialSpec::Fitts(_) => Kind::Fitts,
         }
     }
@@ -167,15 +187,13 @@ pub fn resolve(protocol: &Protocol, seed: u64, participant_index: u32) -> Plan {
             &mut rng,
         ) {
             let spec = match spec {
-                TrialSpec::PairedComparison {
-                    first,
-                    second,
-                    exploration_s,
-                } if rng.random_bool(0.5) => TrialSpec::PairedComparison {
-                    first: second,
-                    second: first,
-                    exploration_s,
-                },
+                TrialSpec::PairedComparison(p) if rng.random_bool(0.5) => {
+                    TrialSpec::PairedComparison(PairedTrial {
+                        first: p.second,
+                        second: p.first,
+                        exploration_s: p.exploration_s,
+                    })
+                }
                 other => other,
             };
             trials.push(PlannedTrial {
@@ -210,11 +228,11 @@ fn blocks(p: &Protocol) -> Vec<BlockDraft> {
                 .pairs
                 .iter()
                 .filter_map(|[a, b]| {
-                    Some(TrialSpec::PairedComparison {
+                    Some(TrialSpec::PairedComparison(PairedTrial {
                         first: find(a)?,
                         second: find(b)?,
                         exploration_s: d.exploration_s,
-                    })
+                    }))
                 })
                 .collect();
             vec![BlockDraft {
@@ -232,12 +250,14 @@ fn blocks(p: &Protocol) -> Vec<BlockDraft> {
                 trials: set
                     .stimuli
                     .iter()
-                    .map(|&s| TrialSpec::MagnitudeEstimation {
-                        display: set.display.clone(),
-                        model: stimulus_model(&set.model, s),
-                        mu_s: s.mu_s,
-                        mu_k: s.mu_k,
-                        exploration_s: d.exploration_s,
+                    .map(|&s| {
+                        TrialSpec::MagnitudeEstimation(MagnitudeTrial {
+                            display: set.display.clone(),
+                            model: stimulus_model(&set.model, s),
+                            mu_s: s.mu_s,
+                            mu_k: s.mu_k,
+                            exploration_s: d.exploration_s,
+                        })
                     })
                     .collect(),
             })

@@ -6,7 +6,7 @@
 use std::collections::VecDeque;
 
 use super::{Action, Input, LiveTrial, Next, Screen, TrialData};
-use crate::protocol::plan::{FittsTrial, TrialSpec};
+use crate::protocol::plan::FittsTrial;
 
 /// The live state.
 #[derive(Debug, Clone)]
@@ -24,11 +24,8 @@ pub(super) struct Tapping {
 
 impl Tapping {
     /// Sets the condition's physical friction, renders its model and lights
-    /// the target at `-A/2`; `None` unless `spec` is a Fitts trial.
-    pub(super) fn start(spec: &TrialSpec, now: f64, out: &mut VecDeque<Action>) -> Option<Self> {
-        let TrialSpec::Fitts(trial) = spec else {
-            return None;
-        };
+    /// the target at `-A/2`.
+    pub(super) fn start(trial: &FittsTrial, now: f64, out: &mut VecDeque<Action>) -> Self {
         let a = trial.amplitude_m;
         let t = Tapping {
             trial: trial.clone(),
@@ -44,7 +41,7 @@ impl Tapping {
         out.push_back(Action::Physical(trial.physical.clone()));
         out.push_back(Action::Render(Some(trial.model.clone())));
         out.push_back(t.screen(false));
-        Some(t)
+        t
     }
 
     fn screen(&self, missed: bool) -> Action {

@@ -5,7 +5,7 @@
 use std::collections::VecDeque;
 
 use super::{Action, Answer, Exploration, Input, LiveTrial, Next, Question, Screen, TrialData};
-use crate::protocol::plan::TrialSpec;
+use crate::protocol::plan::MagnitudeTrial;
 
 /// Checks a typed magnitude: a finite number greater than zero.
 ///
@@ -38,28 +38,18 @@ pub(super) struct Explore {
 
 impl Explore {
     /// Renders the stimulus's model and shows the exploration screen until
-    /// `now + exploration_s`; `None` unless `spec` is a magnitude trial.
-    pub(super) fn start(spec: &TrialSpec, now: f64, out: &mut VecDeque<Action>) -> Option<Self> {
-        let TrialSpec::MagnitudeEstimation {
-            display,
-            model,
-            mu_s,
-            mu_k,
-            exploration_s,
-        } = spec
-        else {
-            return None;
-        };
-        let until = now + exploration_s;
-        out.push_back(Action::Render(Some(model.clone())));
+    /// `now + exploration_s`.
+    pub(super) fn start(trial: &MagnitudeTrial, now: f64, out: &mut VecDeque<Action>) -> Self {
+        let until = now + trial.exploration_s;
+        out.push_back(Action::Render(Some(trial.model.clone())));
         out.push_back(Action::Show(Screen::Explore { until_s: until }));
-        Some(Explore {
-            display: display.clone(),
-            mu_s: *mu_s,
-            mu_k: *mu_k,
+        Explore {
+            display: trial.display.clone(),
+            mu_s: trial.mu_s,
+            mu_k: trial.mu_k,
             time: Exploration::until(until),
             magnitude: None,
-        })
+        }
     }
 }
 

@@ -251,18 +251,16 @@ enum LiveState {
 
 impl LiveState {
     /// Starts `spec` at `now`, pushing what the shell must do.
-    fn start(spec: &TrialSpec, now: f64, out: &mut VecDeque<Action>) -> Option<Self> {
-        Some(match spec {
-            TrialSpec::MagnitudeEstimation { .. } => {
-                LiveState::Magnitude(magnitude::Explore::start(spec, now, out)?)
+    fn start(spec: &TrialSpec, now: f64, out: &mut VecDeque<Action>) -> Self {
+        match spec {
+            TrialSpec::MagnitudeEstimation(t) => {
+                LiveState::Magnitude(magnitude::Explore::start(t, now, out))
             }
-            TrialSpec::PairedComparison { .. } => {
-                LiveState::Paired(Box::new(paired::Compare::start(spec, now, out)?))
+            TrialSpec::PairedComparison(t) => {
+                LiveState::Paired(Box::new(paired::Compare::start(t, now, out)))
             }
-            TrialSpec::Fitts(_) => {
-                LiveState::Fitts(Box::new(fitts::Tapping::start(spec, now, out)?))
-            }
-        })
+            TrialSpec::Fitts(t) => LiveState::Fitts(Box::new(fitts::Tapping::start(t, now, out))),
+        }
     }
 
     fn trial(&self) -> &dyn LiveTrial {
@@ -517,7 +515,7 @@ impl Engine {
         let Some(state) = self
             .current
             .as_ref()
-            .and_then(|trial| LiveState::start(&trial.spec, now, &mut self.out))
+            .map(|trial| LiveState::start(&trial.spec, now, &mut self.out))
         else {
             return Stage::Finished;
         };

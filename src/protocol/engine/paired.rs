@@ -8,7 +8,7 @@ use super::{
     Action, Answer, Choice, Exploration, Input, LiveTrial, Next, Question, Screen, TrialData,
 };
 use crate::protocol::Condition;
-use crate::protocol::plan::TrialSpec;
+use crate::protocol::plan::PairedTrial;
 
 /// The live state; `time` asks the question when the exploration is over.
 #[derive(Debug, Clone)]
@@ -21,28 +21,21 @@ pub(super) struct Compare {
 
 impl Compare {
     /// Renders the first stimulus and shows the comparison screen until
-    /// `now + 2 exploration_s`; `None` unless `spec` is a paired trial.
-    pub(super) fn start(spec: &TrialSpec, now: f64, out: &mut VecDeque<Action>) -> Option<Self> {
-        let TrialSpec::PairedComparison {
-            first,
-            second,
-            exploration_s,
-        } = spec
-        else {
-            return None;
-        };
-        let until = now + 2.0 * exploration_s;
+    /// `now + 2 exploration_s`.
+    pub(super) fn start(trial: &PairedTrial, now: f64, out: &mut VecDeque<Action>) -> Self {
+        let PairedTrial { first, second, .. } = trial;
+        let until = now + 2.0 * trial.exploration_s;
         out.push_back(Action::Render(Some(first.model.clone())));
         out.push_back(Action::Show(Screen::Paired {
             active: 0,
             until_s: until,
         }));
-        Some(Compare {
+        Compare {
             conditions: [first.clone(), second.clone()],
             time: Exploration::until(until),
             active: 0,
             choice: None,
-        })
+        }
     }
 }
 

@@ -2,7 +2,7 @@
 //! the fixed case.
 
 use super::TrialRecord;
-use crate::protocol::plan::{FittsTrial, Plan, PlannedTrial, TrialSpec};
+use crate::protocol::plan::{Plan, PlannedTrial};
 
 /// Where a session's trials come from: the trial at each presentation
 /// position, given every record logged so far. A fixed [`Plan`] ignores the
@@ -35,13 +35,7 @@ impl TrialSource for Plan {
     fn loop_rate_hz(&self) -> f64 {
         self.trials
             .iter()
-            .map(|t| match &t.spec {
-                TrialSpec::MagnitudeEstimation { model, .. }
-                | TrialSpec::Fitts(FittsTrial { model, .. }) => model.loop_rate_hz(),
-                TrialSpec::PairedComparison { first, second, .. } => {
-                    first.model.loop_rate_hz().max(second.model.loop_rate_hz())
-                }
-            })
+            .map(|t| t.spec.loop_rate_hz())
             .fold(1000.0, f64::max)
     }
 }
