@@ -591,19 +591,3 @@ impl<R: Responder> Session<R> {
         }
     }
 }
-
-impl Session<Person> {
-    /// Starts (or resumes) a session a person runs from the window (logged
-    /// with responder `gui`), with a live trace.
-    ///
-    /// # Errors
-    /// As [`Session::begin`].
-    pub fn start(dir: &ResultsDir, req: &SessionRequest<'_>) -> Result<Self, SessionError> {
-        Ok(Session::begin(dir, req, |_| Person::default())?.with_trace())
-    }
-
-    /// Where the mouse holds the hand, m (`None`: the pointer is away).
-    pub fn set_hand_target(&mut self, x_m: Option<f64>) {
-        self.responder.set_hand_target(x_m);
-    }
-}

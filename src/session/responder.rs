@@ -8,6 +8,9 @@ use crate::hand::HandDrive;
 use crate::participant::SimParticipant;
 use crate::protocol::engine::{Action, Input};
 use crate::protocol::plan::PlannedTrial;
+use crate::results::ResultsDir;
+
+use super::{Session, SessionError, SessionRequest};
 
 /// What a responder does in response to an action or a sample.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -120,5 +123,21 @@ impl Responder for Person {
     fn hand_force(&mut self, now_s: f64, dt: f64, sample: &DeviceSample) -> f64 {
         let d = self.drive(now_s, sample).unwrap_or_default();
         self.hand.force(&d, sample.x_m, sample.v_m_s, dt)
+    }
+}
+
+impl Session<Person> {
+    /// Starts (or resumes) a session a person runs from the window (logged
+    /// with responder `gui`), with a live trace.
+    ///
+    /// # Errors
+    /// As [`Session::begin`].
+    pub fn start(dir: &ResultsDir, req: &SessionRequest<'_>) -> Result<Self, SessionError> {
+        Ok(Session::begin(dir, req, |_| Person::default())?.with_trace())
+    }
+
+    /// Where the mouse holds the hand, m (`None`: the pointer is away).
+    pub fn set_hand_target(&mut self, x_m: Option<f64>) {
+        self.responder.set_hand_target(x_m);
     }
 }
