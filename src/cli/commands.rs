@@ -1,7 +1,18 @@
 //! One function per command: checks its arguments, calls the library,
 //! reports what was done.
 
-use super::*;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use super::{
+    DeviceChoice, EXIT_FAILURE, Failure, GuiArgs, IdentifyArgs, RenderArgs, ResponderChoice,
+    RunArgs, SimulateArgs, UserError, device_failure, emit, say,
+};
+use crate::friction::{ForceLimit, ModelParams};
+use crate::protocol::{Protocol, load};
+use crate::scenario::{self, ScenarioError, ScenarioParams};
+use crate::session::{self, SessionError};
+use crate::{render, results, settings};
 
 /// Reads and checks a protocol file.
 fn load_protocol(path: &Path) -> Result<(Protocol, Vec<u8>), Vec<UserError>> {

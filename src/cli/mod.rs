@@ -1,22 +1,16 @@
 //! The command line: parses arguments, calls the library, and is the one place
 //! that turns errors into `error: <where>: <what>` lines and exit codes.
 
-use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
-use crate::friction::{ForceLimit, ModelParams};
-use crate::protocol::{Protocol, load};
-use crate::render;
-use crate::results::{self, ResultsError};
 // A problem with the user's input is the library's one `Problem`, printed by
 // `finish` as `error: <place>: <message>`.
 use crate::problem::Problem as UserError;
-use crate::scenario::{self, ScenarioError, ScenarioParams};
-use crate::session::{self, DeviceChoice, SessionError};
-use crate::settings;
+use crate::results::ResultsError;
+use crate::session::{DeviceChoice, SessionError};
 
 mod commands;
 
