@@ -168,15 +168,12 @@ impl Device {
 
     /// Connected, rate and period p99.
     pub(super) fn status(&self) -> (bool, f64, Option<f64>) {
-        match self {
-            Device::Sim { dt, .. } => (true, 1.0 / dt, None),
-            Device::Stopped { rate_hz } => (false, *rate_hz, None),
-            Device::Port(port) => (
-                port.link == LinkState::Connected,
-                port.rate_hz,
-                percentile(&port.periods, 0.99),
-            ),
-        }
+        let (rate_hz, p99) = match self {
+            Device::Sim { dt, .. } => (1.0 / dt, None),
+            Device::Stopped { rate_hz } => (*rate_hz, None),
+            Device::Port(port) => (port.rate_hz, percentile(&port.periods, 0.99)),
+        };
+        (self.connected(), rate_hz, p99)
     }
 }
 

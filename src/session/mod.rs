@@ -210,13 +210,14 @@ impl<R: Responder> Session<R> {
         let device = match device {
             DeviceChoice::Simulated => {
                 log.open()?;
+                let step = StepParams::default();
                 Device::Sim {
                     device: Box::new(SimDevice::new(
                         Apparatus::default(),
                         responder.hand_mass_kg(),
-                        StepParams::default(),
+                        step,
                     )),
-                    dt: 1e-3,
+                    dt: step.dt(),
                 }
             }
             DeviceChoice::Port(path) => {

@@ -176,11 +176,6 @@ impl<R: Responder> Session<R> {
         }
     }
 
-    /// The responder.
-    pub fn responder_mut(&mut self) -> &mut R {
-        &mut self.responder
-    }
-
     /// Session number.
     #[must_use]
     pub fn session(&self) -> u32 {
