@@ -104,7 +104,6 @@ pub struct TracePoint {
 #[derive(Debug, Clone, Default)]
 pub(super) struct Trace {
     pub(super) points: VecDeque<TracePoint>,
-    last_t: Option<f64>,
     peak_vibration: f64,
 }
 
@@ -112,12 +111,12 @@ impl Trace {
     pub(super) fn observe(&mut self, t: f64, sample: &DeviceSample) {
         self.peak_vibration = self.peak_vibration.max(sample.vibration.abs());
         if self
-            .last_t
-            .is_some_and(|last| t - last < TRACE_EVERY_S - 1e-9)
+            .points
+            .back()
+            .is_some_and(|last| t - last.t_s < TRACE_EVERY_S - 1e-9)
         {
             return;
         }
-        self.last_t = Some(t);
         while self
             .points
             .front()
@@ -280,11 +279,9 @@ impl<R: Responder> Session<R> {
     /// How the run went so far.
     #[must_use]
     pub fn outcome(&self) -> SessionOutcome {
-        let (completed, aborted) = match &self.log {
-            Log::Open(open) => (
-                open.read.completed(),
-                open.read.trials.len() - open.read.completed(),
-            ),
+        let completed = self.completed();
+        let (aborted, torn_bytes) = match &self.log {
+            Log::Open(open) => (open.read.trials.len() - completed, open.torn_bytes),
             Log::Planned { .. } => (0, 0),
         };
         SessionOutcome {
@@ -292,10 +289,7 @@ impl<R: Responder> Session<R> {
             completed,
             aborted,
             resumed_at: self.resumed_at,
-            torn_bytes: match &self.log {
-                Log::Open(open) => open.torn_bytes,
-                Log::Planned { .. } => 0,
-            },
+            torn_bytes,
             simulated_s: self.t - self.start_t,
             csv: self.csv().to_owned(),
             log: self.log_path().to_owned(),
