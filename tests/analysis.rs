@@ -11,7 +11,7 @@ use std::process::{Command, Output};
 
 use frictionlab::analysis::{analyze, stats};
 use frictionlab::protocol::Kind;
-use frictionlab::results::{COMMON_COLUMNS, kind_columns};
+use frictionlab::results::COMMON_COLUMNS;
 use serde_json::Value;
 
 fn close(actual: f64, expected: f64) -> bool {
@@ -29,7 +29,7 @@ fn assert_close(actual: &Value, expected: f64, what: &str) {
 /// common columns default to a completed, non-practice trial.
 fn data(dir: &Path, name: &str, kind: Kind, rows: &[Vec<(&str, String)>]) {
     let mut cols: Vec<&str> = COMMON_COLUMNS.to_vec();
-    cols.extend_from_slice(kind_columns(kind));
+    cols.extend_from_slice(kind.columns());
     let mut text = cols.join(",") + "\n";
     for (i, row) in rows.iter().enumerate() {
         let get = |c: &str| row.iter().find(|(k, _)| *k == c).map(|(_, v)| v.clone());

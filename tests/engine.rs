@@ -5,6 +5,9 @@
     reason = "a failed unwrap is a failed test"
 )]
 
+use frictionlab::kinds::fitts::FittsData;
+use frictionlab::kinds::magnitude::MagnitudeData;
+use frictionlab::kinds::paired::PairedData;
 use frictionlab::protocol::engine::{
     Action, Answer, Choice, Engine, Input, Question, Screen, Status, TrialData, TrialRecord,
 };
@@ -66,11 +69,11 @@ fn bad_magnitudes_are_refused_and_asked_again_never_logged() {
     e.handle(3.0, Input::Answer(Answer::Magnitude(" 2.5 ".into())));
     let a = drain(&mut e);
     let r = record(&a).expect("recorded");
-    let TrialData::MagnitudeEstimation {
+    let TrialData::MagnitudeEstimation(MagnitudeData {
         magnitude,
         response_time_s,
         ..
-    } = &r.data
+    }) = &r.data
     else {
         panic!()
     };
@@ -119,7 +122,7 @@ fn fitts_counts_hits_inside_the_lit_target_and_logs_misses() {
     e.handle(3.0, Input::Click { x_m: 0.0081 }); // fourth hit: done
     let a = drain(&mut e);
     let r = record(&a).expect("done after 4 hits");
-    let TrialData::Fitts {
+    let TrialData::Fitts(FittsData {
         taps,
         errors,
         completion_time_s,
@@ -128,7 +131,7 @@ fn fitts_counts_hits_inside_the_lit_target_and_logs_misses() {
         target_x_m,
         miss_x_m,
         ..
-    } = &r.data
+    }) = &r.data
     else {
         panic!()
     };
@@ -202,12 +205,12 @@ fn an_aborted_trial_is_logged_and_presented_again() {
     e.handle(2.5, Input::Answer(Answer::Paired(Choice::Second)));
     let a = drain(&mut e);
     let r = record(&a).unwrap();
-    let TrialData::PairedComparison {
+    let TrialData::PairedComparison(PairedData {
         second,
         choice,
         chosen,
         ..
-    } = &r.data
+    }) = &r.data
     else {
         panic!()
     };

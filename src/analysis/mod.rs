@@ -26,8 +26,9 @@ use std::path::{Path, PathBuf};
 use polars::prelude::*;
 use serde_json::{Value, json};
 
+use crate::kinds::{AnalysisEntry, Kind};
 use crate::problem::Problem;
-use crate::results::{COMMON_COLUMNS, ResultsDir, kind_columns};
+use crate::results::COMMON_COLUMNS;
 
 /// One output table: named columns of cells, written as CSV and Parquet.
 #[derive(Debug, Clone, PartialEq)]
@@ -136,6 +137,20 @@ impl Table {
             .collect();
         DataFrame::new_infer_height(columns)
     }
+}
+
+/// One kind's part of an analysis, from its entry
+/// (`crate::kinds::AnalysisEntry`).
+#[derive(Debug, Clone)]
+pub struct Section {
+    /// The kind's object in `summary.json`.
+    pub summary: Value,
+    /// Why some statistics are n/a.
+    pub notes: Vec<String>,
+    /// The kind's tables.
+    pub tables: Vec<Table>,
+    /// The kind's section of the HTML report.
+    pub html: String,
 }
 
 /// A finished analysis.
@@ -349,15 +364,10 @@ fn data_files(dir: &Path) -> Vec<PathBuf> {
     files
 }
 
-/// Columns the analysis of each kind reads.
-fn needed(kind: crate::protocol::Kind) -> Vec<&'static str> {
+/// Columns the analysis of a kind reads.
+fn needed(kind: Kind, entry: &AnalysisEntry) -> Vec<&'static str> {
     let mut c: Vec<&str> = vec!["participant", "trial", "status", "practice"];
-    c.extend(kind_columns(kind).iter().copied().filter(|k| {
-        !matches!(
-            *k,
-            "response_time_s" | "effective_width_m" | "cursor_m" | "miss_x_m"
-        )
-    }));
+    c.extend(kind.columns().iter().filter(|k| !entry.unread.contains(k)));
     c
 }
 
@@ -368,7 +378,6 @@ fn needed(kind: crate::protocol::Kind) -> Vec<&'static str> {
 /// No data files, a file whose kind cannot be told, missing columns, or a
 /// CSV polars cannot read.
 pub fn load(dir: &Path) -> Result<BTreeMap<&'static str, Rows>, Problem> {
-    use crate::protocol::Kind;
     let files = data_files(dir);
     if files.is_empty() {
         return Err(Problem::new(
@@ -376,7 +385,11 @@ pub fn load(dir: &Path) -> Result<BTreeMap<&'static str, Rows>, Problem> {
             "no data files (expected data/*_data.csv, as written by frictionlab run or simulate)",
         ));
     }
-    let mut by_kind: BTreeMap<&'static str, (Kind, Vec<PathBuf>)> = BTreeMap::new();
+    let analysed: Vec<(Kind, AnalysisEntry)> = Kind::ALL
+        .iter()
+        .filter_map(|&k| k.analysis().map(|a| (k, a)))
+        .collect();
+    let mut by_kind: BTreeMap<&'static str, (Kind, AnalysisEntry, Vec<PathBuf>)> = BTreeMap::new();
     for file in &files {
         let name = file.display().to_string();
         let header = std::fs::read_to_string(file)
@@ -386,19 +399,17 @@ pub fn load(dir: &Path) -> Result<BTreeMap<&'static str, Rows>, Problem> {
             .map(|l| l.split(',').map(str::to_owned).collect::<Vec<_>>())
             .unwrap_or_default();
         let has = |c: &str| header.iter().any(|h| h == c);
-        let kind = if has("display") {
-            Kind::MagnitudeEstimation
-        } else if has("choice") {
-            Kind::PairedComparison
-        } else if has("id_bits") {
-            Kind::Fitts
-        } else {
+        let Some(&(kind, entry)) = analysed.iter().find(|(_, a)| has(a.marker)) else {
+            let markers: Vec<&str> = analysed.iter().map(|(_, a)| a.marker).collect();
             return Err(Problem::new(
                 format!("{name}: 1:1"),
-                "cannot tell the kind of session: none of the columns display, choice, id_bits",
+                format!(
+                    "cannot tell the kind of session: none of the columns {}",
+                    markers.join(", ")
+                ),
             ));
         };
-        for c in COMMON_COLUMNS.iter().copied().chain(needed(kind)) {
+        for c in COMMON_COLUMNS.iter().copied().chain(needed(kind, &entry)) {
             if !has(c) {
                 return Err(Problem::new(
                     format!("{name}: 1:1"),
@@ -408,13 +419,13 @@ pub fn load(dir: &Path) -> Result<BTreeMap<&'static str, Rows>, Problem> {
         }
         by_kind
             .entry(kind.as_str())
-            .or_insert((kind, Vec::new()))
-            .1
+            .or_insert((kind, entry, Vec::new()))
+            .2
             .push(file.clone());
     }
     let mut out = BTreeMap::new();
-    for (name, (kind, paths)) in by_kind {
-        out.insert(name, scan(&paths, &needed(kind))?);
+    for (name, (kind, entry, paths)) in by_kind {
+        out.insert(name, scan(&paths, &needed(kind, &entry))?);
     }
     Ok(out)
 }
@@ -459,27 +470,15 @@ pub fn analyze(dir: &Path) -> Result<Analysis, Problem> {
     let mut tables = Vec::new();
     let mut notes: Vec<String> = Vec::new();
     let mut sections = Vec::new();
-    let order = display_order(dir);
-    if let Some(rows) = data.get("magnitude_estimation") {
-        let m = magnitude::analyze(rows, &order)?;
-        summary.insert("magnitude_estimation".into(), m.summary.clone());
-        notes.extend(m.notes.iter().cloned());
-        sections.push(report::magnitude_section(&m));
-        tables.extend(m.tables);
-    }
-    if let Some(rows) = data.get("paired_comparison") {
-        let p = paired::analyze(rows)?;
-        summary.insert("paired_comparison".into(), p.summary.clone());
-        notes.extend(p.notes.iter().cloned());
-        sections.push(report::paired_section(&p));
-        tables.extend(p.tables);
-    }
-    if let Some(rows) = data.get("fitts") {
-        let f = fitts::analyze(rows)?;
-        summary.insert("fitts".into(), f.summary.clone());
-        notes.extend(f.notes.iter().cloned());
-        sections.push(report::fitts_section(&f));
-        tables.extend(f.tables);
+    for kind in Kind::ALL {
+        let (Some(entry), Some(rows)) = (kind.analysis(), data.get(kind.as_str())) else {
+            continue;
+        };
+        let section = (entry.run)(rows, dir)?;
+        summary.insert(kind.as_str().into(), section.summary);
+        notes.extend(section.notes);
+        sections.push(section.html);
+        tables.extend(section.tables);
     }
     let rows: BTreeMap<&str, usize> = data.iter().map(|(k, v)| (*k, v.len())).collect();
     summary.insert(
@@ -503,21 +502,6 @@ fn folder_name(dir: &Path) -> String {
         || dir.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     )
-}
-
-/// Display order for magnitude estimation: the protocol's set order, from the
-/// first session log header that has one; empty if none.
-fn display_order(dir: &Path) -> Vec<String> {
-    ResultsDir::new(dir)
-        .headers()
-        .into_iter()
-        .find_map(|h| match h.protocol.design {
-            crate::protocol::Design::MagnitudeEstimation(d) => {
-                Some(d.sets.into_iter().map(|s| s.display).collect())
-            }
-            _ => None,
-        })
-        .unwrap_or_default()
 }
 
 /// Writes `summary.json`, `report.html`, and every table as

@@ -24,13 +24,12 @@ pub(super) fn validate_command(paths: &[PathBuf]) -> Result<(), Failure> {
     for path in paths {
         match load_protocol(path) {
             Ok((p, _)) => {
-                let plan = crate::protocol::plan::resolve(&p, 0, 0);
                 emit(&format!(
-                    "ok: {}: {} '{}', {} trials per session\n",
+                    "ok: {}: {} '{}', {}\n",
                     path.display(),
                     p.design.kind().as_str(),
                     p.id,
-                    plan.trials.len()
+                    p.trials_per_session()
                 ))?;
             }
             Err(e) => errors.extend(e),
@@ -346,7 +345,7 @@ pub(super) fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
         }
     };
     let dir = results::ResultsDir::new(&args.out);
-    let planned = crate::protocol::plan::resolve(&protocol, 0, 0).trials.len() as u64;
+    let planned = crate::kinds::source(&protocol, 0, 0).planned().unwrap_or(0) as u64;
     let bar = indicatif::ProgressBar::new(planned * u64::from(args.participants));
     bar.set_style(
         indicatif::ProgressStyle::with_template(

@@ -82,6 +82,7 @@ pub(crate) fn show(
             width_m,
             cursor_m,
             missed,
+            ..
         }) => {
             big(ui, "Click on the green target.");
             let text = if *missed {

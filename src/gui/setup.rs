@@ -20,12 +20,12 @@ struct Loaded {
     protocol: Protocol,
     bytes: Vec<u8>,
     /// Trials in a session (its plan resolved once, at load).
-    trials: usize,
+    trials: String,
 }
 
 impl Loaded {
     fn new(label: String, protocol: Protocol, bytes: Vec<u8>) -> Self {
-        let trials = crate::protocol::plan::resolve(&protocol, 0, 0).trials.len();
+        let trials = protocol.trials_per_session();
         Loaded {
             label,
             protocol,
@@ -323,7 +323,7 @@ impl SetupPanel {
         match &self.loaded {
             Ok(l) => {
                 ui.label(format!(
-                    "{}: {} ({}, {} trials per session)",
+                    "{}: {} ({}, {})",
                     l.label,
                     l.protocol.title,
                     l.protocol.design.kind().as_str(),

@@ -47,7 +47,7 @@ use rand_distr::{Distribution, Normal};
 use crate::device::DeviceSample;
 use crate::hand::{Hand, HandDrive};
 use crate::protocol::engine::{Action, Answer, Choice, Input, Question, Screen};
-use crate::protocol::plan::{PlannedTrial, TrialSpec};
+use crate::protocol::plan::PlannedTrial;
 use crate::scenario::min_jerk;
 use crate::session::Reaction;
 
@@ -281,10 +281,10 @@ impl SimParticipant {
             Action::Show(Screen::Fitts {
                 lit_m,
                 other_m,
-                width_m,
-                cursor_m,
+                effective_width_m,
                 missed,
-            }) => self.fitts_screen(now, trial, [*lit_m, *other_m], *width_m, *cursor_m, *missed),
+                ..
+            }) => self.fitts_screen(now, trial, [*lit_m, *other_m], *effective_width_m, *missed),
             Action::Ask(Question::Magnitude) => {
                 let answer = self.magnitude_answer();
                 Reaction {
@@ -311,19 +311,15 @@ impl SimParticipant {
         self.segment = self.segment.wrapping_add(1);
     }
 
+    /// A Fitts screen: `w_eff` is the width that counts for a hit.
     fn fitts_screen(
         &mut self,
         now: f64,
         trial: Option<&PlannedTrial>,
         lit_other: [f64; 2],
-        width: f64,
-        cursor: f64,
+        w_eff: f64,
         missed: bool,
     ) -> Reaction {
-        let w_eff = match trial.map(|t| &t.spec) {
-            Some(TrialSpec::Fitts(f)) => f.effective_width_m,
-            _ => width - cursor,
-        };
         if let Behaviour::Tap(t) = &mut self.behaviour {
             // After a click: a new target, or a correction after a miss.
             let lit = usize::from((lit_other[0] - t.centres[0]).abs() >= 1e-12);

@@ -11,10 +11,7 @@
 use serde::de::DeserializeOwned;
 use serde_json::{Map, Value};
 
-use super::{
-    BlockOrder, Condition, Design, FittsCondition, FittsDesign, FittsLevel, IdFormula,
-    MagnitudeDesign, MagnitudeSet, PairedDesign, Protocol, Randomization, Stimulus, Tolerance,
-};
+use super::{BlockOrder, Condition, Design, Kind, Protocol, Randomization};
 use crate::friction::{
     DahlParams, GodObjectParams, KarnoppParams, ModelParams, NakanoParams, ViscousParams,
 };
@@ -75,12 +72,18 @@ pub fn is_valid_id(id: &str) -> bool {
             .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
 }
 
-#[derive(Default)]
-struct Walk {
+/// The walk over a protocol's JSON: each reader takes a value and its JSON
+/// path, records every problem it finds, and returns `None` if any part
+/// failed. A kind's `read` (`crate::kinds::StudyKind::read`) walks its
+/// design with these.
+#[derive(Debug, Default)]
+pub struct Walk {
     errors: Vec<Problem>,
 }
 
-fn join(path: &str, key: &str) -> String {
+/// `path.key` (just `key` at the root `$`).
+#[must_use]
+pub fn join(path: &str, key: &str) -> String {
     if path == "$" {
         key.to_owned()
     } else {
@@ -89,12 +92,13 @@ fn join(path: &str, key: &str) -> String {
 }
 
 impl Walk {
-    fn err(&mut self, path: impl Into<String>, message: impl Into<String>) {
+    /// Records a problem at `path`.
+    pub fn err(&mut self, path: impl Into<String>, message: impl Into<String>) {
         self.errors.push(Problem::new(path, message));
     }
 
     /// `v` as an object whose keys are all in `known`.
-    fn object<'v>(
+    pub fn object<'v>(
         &mut self,
         v: &'v Value,
         path: &str,
@@ -116,7 +120,7 @@ impl Walk {
     }
 
     /// Deserializes `v` (at `path`) as `T`.
-    fn value<T: DeserializeOwned>(&mut self, v: &Value, path: &str) -> Option<T> {
+    pub fn value<T: DeserializeOwned>(&mut self, v: &Value, path: &str) -> Option<T> {
         match serde_path_to_error::deserialize::<_, T>(v) {
             Ok(t) => Some(t),
             Err(e) => {
@@ -135,7 +139,7 @@ impl Walk {
     }
 
     /// A required field.
-    fn required<T: DeserializeOwned>(
+    pub fn required<T: DeserializeOwned>(
         &mut self,
         map: &Map<String, Value>,
         key: &str,
@@ -150,7 +154,7 @@ impl Walk {
     }
 
     /// An optional field with a default; `None` if present but invalid.
-    fn optional<T: DeserializeOwned>(
+    pub fn optional<T: DeserializeOwned>(
         &mut self,
         map: &Map<String, Value>,
         key: &str,
@@ -164,7 +168,7 @@ impl Walk {
     }
 
     /// A required array, each element read by `f`; `None` if any failed.
-    fn list<T>(
+    pub fn list<T>(
         &mut self,
         map: &Map<String, Value>,
         key: &str,
@@ -213,7 +217,7 @@ impl Walk {
         let break_s = self.optional(m, "break_s", p, 0.0_f64);
         let instructions = self.optional(m, "instructions", p, String::new());
         let design = if let Some(d) = m.get("design") {
-            self.design(d, "design")
+            Design::read(self, d, "design")
         } else {
             self.err("design", "missing required field");
             None
@@ -232,36 +236,21 @@ impl Walk {
         })
     }
 
-    fn design(&mut self, v: &Value, path: &str) -> Option<Design> {
-        let kinds = ["paired_comparison", "magnitude_estimation", "fitts"];
-        let kind = v.get("kind").and_then(Value::as_str);
-        match kind {
-            Some("paired_comparison") => self.paired(v, path).map(Design::PairedComparison),
-            Some("magnitude_estimation") => {
-                self.magnitude(v, path).map(Design::MagnitudeEstimation)
-            }
-            Some("fitts") => self.fitts(v, path).map(Design::Fitts),
-            Some(other) => {
-                self.err(
-                    join(path, "kind"),
-                    format!(
-                        "unknown kind '{other}'; expected one of: {}",
-                        kinds.join(", ")
-                    ),
-                );
-                None
-            }
-            None => {
-                self.err(
-                    join(path, "kind"),
-                    format!("missing; expected one of: {}", kinds.join(", ")),
-                );
-                None
-            }
-        }
+    /// A design whose `kind` is missing or not a registered kind.
+    pub(crate) fn unknown_kind(&mut self, path: &str, kind: Option<&str>) {
+        let kinds: Vec<&str> = Kind::ALL.iter().map(|k| k.as_str()).collect();
+        let message = match kind {
+            Some(other) => format!(
+                "unknown kind '{other}'; expected one of: {}",
+                kinds.join(", ")
+            ),
+            None => format!("missing; expected one of: {}", kinds.join(", ")),
+        };
+        self.err(join(path, "kind"), message);
     }
 
-    fn condition(&mut self, v: &Value, path: &str) -> Option<Condition> {
+    /// A named rendering `{id, model}`.
+    pub fn condition(&mut self, v: &Value, path: &str) -> Option<Condition> {
         let m = self.object(v, path, &["id", "model"])?;
         let id = self.required::<String>(m, "id", path);
         let model = self.model_field(m, "model", path);
@@ -271,102 +260,8 @@ impl Walk {
         })
     }
 
-    fn paired(&mut self, v: &Value, path: &str) -> Option<PairedDesign> {
-        let keys = [
-            "kind",
-            "reference_s",
-            "reference_instructions",
-            "exploration_s",
-            "conditions",
-            "pairs",
-        ];
-        let m = self.object(v, path, &keys)?;
-        let reference_s = self.required(m, "reference_s", path);
-        let reference_instructions = self.required(m, "reference_instructions", path);
-        let exploration_s = self.required(m, "exploration_s", path);
-        let conditions = self.list(m, "conditions", path, Self::condition);
-        let pairs = self.list(m, "pairs", path, Walk::value::<[String; 2]>);
-        Some(PairedDesign {
-            reference_s: reference_s?,
-            reference_instructions: reference_instructions?,
-            exploration_s: exploration_s?,
-            conditions: conditions?,
-            pairs: pairs?,
-        })
-    }
-
-    fn magnitude(&mut self, v: &Value, path: &str) -> Option<MagnitudeDesign> {
-        let m = self.object(v, path, &["kind", "exploration_s", "sets"])?;
-        let exploration_s = self.required(m, "exploration_s", path);
-        let sets = self.list(m, "sets", path, |w, v, p| {
-            let m = w.object(v, p, &["display", "model", "stimuli"])?;
-            let display = w.required::<String>(m, "display", p);
-            let model = w.model_field(m, "model", p);
-            let stimuli = w.list(m, "stimuli", p, Walk::value::<Stimulus>);
-            Some(MagnitudeSet {
-                display: display?,
-                model: model?,
-                stimuli: stimuli?,
-            })
-        });
-        Some(MagnitudeDesign {
-            exploration_s: exploration_s?,
-            sets: sets?,
-        })
-    }
-
-    fn fitts(&mut self, v: &Value, path: &str) -> Option<FittsDesign> {
-        let keys = [
-            "kind",
-            "cursor_m",
-            "taps",
-            "id_formula",
-            "tolerance",
-            "timeout_s",
-            "conditions",
-            "levels",
-            "practice",
-            "practice_levels",
-        ];
-        let m = self.object(v, path, &keys)?;
-        let cursor_m = self.required(m, "cursor_m", path);
-        let taps = self.required(m, "taps", path);
-        let id_formula = self.optional(m, "id_formula", path, IdFormula::default());
-        let tolerance = self.optional(m, "tolerance", path, Tolerance::default());
-        let timeout_s = self.optional(m, "timeout_s", path, super::fitts_timeout());
-        let conditions = self.list(m, "conditions", path, |w, v, p| {
-            let m = w.object(v, p, &["id", "model", "prompt", "physical"])?;
-            let id = w.required::<String>(m, "id", p);
-            let model = w.model_field(m, "model", p);
-            let prompt = w.optional::<Option<String>>(m, "prompt", p, None);
-            let physical = match m.get("physical") {
-                Some(v) => w.model(v, &join(p, "physical")).map(Some),
-                None => Some(None),
-            };
-            Some(FittsCondition {
-                id: id?,
-                model: model?,
-                prompt: prompt?,
-                physical: physical?,
-            })
-        });
-        let levels = self.list(m, "levels", path, Walk::value::<FittsLevel>);
-        let practice = self.optional(m, "practice", path, Vec::<String>::new());
-        let practice_levels = self.optional(m, "practice_levels", path, Vec::<usize>::new());
-        Some(FittsDesign {
-            cursor_m: cursor_m?,
-            taps: taps?,
-            id_formula: id_formula?,
-            tolerance: tolerance?,
-            timeout_s: timeout_s?,
-            conditions: conditions?,
-            levels: levels?,
-            practice: practice?,
-            practice_levels: practice_levels?,
-        })
-    }
-
-    fn model_field(
+    /// The required model object under `key`.
+    pub fn model_field(
         &mut self,
         m: &Map<String, Value>,
         key: &str,
@@ -381,7 +276,7 @@ impl Walk {
     }
 
     /// A friction model object, dispatched on its `model` tag, then validated.
-    fn model(&mut self, v: &Value, path: &str) -> Option<ModelParams> {
+    pub fn model(&mut self, v: &Value, path: &str) -> Option<ModelParams> {
         let Some(map) = v.as_object() else {
             self.err(path, format!("expected a model object, got {}", kind_of(v)));
             return None;
@@ -457,23 +352,5 @@ fn kind_of(v: &Value) -> &'static str {
         Value::String(_) => "a string",
         Value::Array(_) => "an array",
         Value::Object(_) => "an object",
-    }
-}
-
-/// The set's model with the stimulus's coefficients.
-#[must_use]
-pub fn stimulus_model(model: &ModelParams, s: Stimulus) -> ModelParams {
-    match model {
-        ModelParams::StickSlipTactile(p) => ModelParams::StickSlipTactile(NakanoParams {
-            mu_s: s.mu_s,
-            mu_k: s.mu_k,
-            ..*p
-        }),
-        ModelParams::StickSlipForce(p) => ModelParams::StickSlipForce(NakanoParams {
-            mu_s: s.mu_s,
-            mu_k: s.mu_k,
-            ..*p
-        }),
-        other => other.clone(),
     }
 }

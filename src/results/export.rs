@@ -3,11 +3,11 @@
 
 use std::collections::BTreeSet;
 
+use super::csv::text;
 use super::folder::ResultsDir;
 use super::session_log::{ReadLog, read_header};
 use super::{ResultsError, replace_file};
-use crate::protocol::Kind;
-use crate::protocol::engine::TrialData;
+use crate::kinds::Kind;
 
 /// The data CSV columns every kind has.
 pub const COMMON_COLUMNS: [&str; 10] = [
@@ -23,54 +23,6 @@ pub const COMMON_COLUMNS: [&str; 10] = [
     "repetition",
 ];
 
-/// Kind-specific data CSV columns.
-#[must_use]
-pub fn kind_columns(kind: Kind) -> &'static [&'static str] {
-    match kind {
-        Kind::PairedComparison => &["first", "second", "choice", "chosen"],
-        Kind::MagnitudeEstimation => &[
-            "display",
-            "mu_s",
-            "mu_k",
-            "delta_mu",
-            "magnitude",
-            "response_time_s",
-        ],
-        Kind::Fitts => &[
-            "condition",
-            "amplitude_m",
-            "width_m",
-            "cursor_m",
-            "effective_width_m",
-            "id_bits",
-            "completion_time_s",
-            "taps",
-            "errors",
-            "mean_error_m",
-            "tap_times_s",
-            "tap_x_m",
-            "target_x_m",
-            "miss_x_m",
-        ],
-    }
-}
-
-fn csv_text(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_owned()
-    }
-}
-
-fn opt<T: ToString>(x: Option<T>) -> String {
-    x.map(|v| v.to_string()).unwrap_or_default()
-}
-
-fn list(xs: &[f64]) -> String {
-    xs.iter().map(f64::to_string).collect::<Vec<_>>().join(";")
-}
-
 /// The data CSV of a session, from its log. Lists (`tap_x_m`, ...) are
 /// `;`-separated; missing values are empty cells.
 #[must_use]
@@ -78,87 +30,27 @@ pub fn data_csv(log: &ReadLog) -> String {
     let h = &log.header;
     let kind = h.protocol.design.kind();
     let mut out: Vec<&str> = COMMON_COLUMNS.to_vec();
-    out.extend_from_slice(kind_columns(kind));
-    let mut text = out.join(",");
-    text.push('\n');
+    out.extend_from_slice(kind.columns());
+    let mut csv = out.join(",");
+    csv.push('\n');
     for r in &log.trials {
         let mut row = vec![
-            csv_text(&h.protocol_id),
+            text(&h.protocol_id),
             kind.as_str().to_owned(),
-            csv_text(&h.participant),
+            text(&h.participant),
             h.session.to_string(),
             r.trial.to_string(),
-            csv_text(&r.block),
+            text(&r.block),
             r.status.as_str().to_owned(),
             h.plan_seed.to_string(),
             r.practice.to_string(),
             r.repetition.to_string(),
         ];
-        match &r.data {
-            TrialData::PairedComparison {
-                first,
-                second,
-                choice,
-                chosen,
-            } => {
-                row.extend([
-                    csv_text(first),
-                    csv_text(second),
-                    opt(choice.map(crate::protocol::engine::Choice::as_str)),
-                    opt(chosen.as_deref()),
-                ]);
-            }
-            TrialData::MagnitudeEstimation {
-                display,
-                mu_s,
-                mu_k,
-                delta_mu,
-                magnitude,
-                response_time_s,
-            } => row.extend([
-                csv_text(display),
-                mu_s.to_string(),
-                mu_k.to_string(),
-                delta_mu.to_string(),
-                opt(*magnitude),
-                opt(*response_time_s),
-            ]),
-            TrialData::Fitts {
-                condition,
-                amplitude_m,
-                width_m,
-                cursor_m,
-                effective_width_m,
-                id_bits,
-                completion_time_s,
-                taps,
-                errors,
-                mean_error_m,
-                tap_times_s,
-                tap_x_m,
-                target_x_m,
-                miss_x_m,
-            } => row.extend([
-                csv_text(condition),
-                amplitude_m.to_string(),
-                width_m.to_string(),
-                cursor_m.to_string(),
-                effective_width_m.to_string(),
-                id_bits.to_string(),
-                opt(*completion_time_s),
-                taps.to_string(),
-                errors.to_string(),
-                opt(*mean_error_m),
-                list(tap_times_s),
-                list(tap_x_m),
-                list(target_x_m),
-                list(miss_x_m),
-            ]),
-        }
-        text.push_str(&row.join(","));
-        text.push('\n');
+        row.extend(r.data.row());
+        csv.push_str(&row.join(","));
+        csv.push('\n');
     }
-    text
+    csv
 }
 
 /// Writes `dataset_description.json` listing every column of every data file
@@ -171,14 +63,10 @@ pub fn write_dataset_description(
     kinds: &BTreeSet<&'static str>,
 ) -> Result<(), ResultsError> {
     let mut columns: Vec<&str> = COMMON_COLUMNS.to_vec();
-    for kind in [
-        Kind::PairedComparison,
-        Kind::MagnitudeEstimation,
-        Kind::Fitts,
-    ] {
+    for kind in Kind::ALL {
         if kinds.contains(kind.as_str()) {
             columns.extend(
-                kind_columns(kind)
+                kind.columns()
                     .iter()
                     .filter(|c| !columns.contains(c))
                     .collect::<Vec<_>>(),

@@ -17,10 +17,12 @@
 //!
 //! The parts: `session_log.rs` (the log's lines, writing and reading it back,
 //! torn lines), `folder.rs` (the folder's layout, file names, session
-//! numbering), `export.rs` (the data CSVs and `dataset_description.json`) and
+//! numbering), `export.rs` (the data CSVs and `dataset_description.json`;
+//! each kind writes its own cells with `csv.rs`) and
 //! `atomic.rs` (the one atomic file write).
 
 mod atomic;
+pub mod csv;
 mod export;
 mod folder;
 mod session_log;
@@ -29,9 +31,7 @@ use std::io;
 use std::path::Path;
 
 pub use atomic::replace_file;
-pub use export::{
-    COMMON_COLUMNS, data_csv, kind_columns, kinds_present, write_dataset_description,
-};
+pub use export::{COMMON_COLUMNS, data_csv, kinds_present, write_dataset_description};
 pub use folder::{ResultsDir, SessionFiles, check_participant, file_key};
 pub use session_log::{
     Header, LOG_FORMAT, LogLine, ReadLog, SessionLog, is_completed, log_json_schema, parse_log,

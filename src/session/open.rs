@@ -10,9 +10,9 @@ use std::sync::Arc;
 
 use super::SessionError;
 use super::record::StreamRecorder;
+use crate::kinds::source;
 use crate::protocol::Protocol;
 use crate::protocol::engine::{Engine, TrialSource};
-use crate::protocol::plan::resolve;
 use crate::results::{
     Header, LOG_FORMAT, LogLine, ReadLog, ResultsDir, ResultsError, SessionFiles, SessionLog,
     data_csv, kinds_present, read_log, replace_file, sha256_hex, write_dataset_description,
@@ -131,7 +131,7 @@ pub fn plan(
         }
         let h = &read.header;
         return Ok(Planned {
-            source: Arc::new(resolve(&h.protocol, h.plan_seed, h.participant_index)),
+            source: source(&h.protocol, h.plan_seed, h.participant_index),
             opening: Opening::Resume {
                 read: Box::new(read),
                 files: last,
@@ -144,7 +144,7 @@ pub fn plan(
     let participant_index = req
         .participant_index
         .unwrap_or_else(|| dir.other_participants(id, req.participant));
-    let plan = resolve(req.protocol, req.seed, participant_index);
+    let source = source(req.protocol, req.seed, participant_index);
     let header = Header {
         format: LOG_FORMAT.into(),
         software_version: env!("CARGO_PKG_VERSION").into(),
@@ -157,10 +157,10 @@ pub fn plan(
         session,
         device: req.device.label(),
         responder: responder.into(),
-        planned_trials: plan.trials.len(),
+        planned_trials: source.planned().unwrap_or(0),
     };
     Ok(Planned {
-        source: Arc::new(plan),
+        source,
         opening: Opening::New {
             header: Box::new(header),
             files,
@@ -170,18 +170,6 @@ pub fn plan(
 }
 
 impl Planned {
-    /// Takes the trials from `source` instead of the protocol's plan (a
-    /// new session logs its planned count; a resumed one rebuilds the
-    /// source's state from its logged records).
-    #[must_use]
-    pub fn with_source(mut self, source: Arc<dyn TrialSource>) -> Self {
-        if let Opening::New { header, .. } = &mut self.opening {
-            header.planned_trials = source.planned().unwrap_or(0);
-        }
-        self.source = source;
-        self
-    }
-
     /// The engine that runs the session from where it stands.
     #[must_use]
     pub fn engine(&self) -> Engine {

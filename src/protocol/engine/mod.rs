@@ -10,8 +10,8 @@
 //! # Kinds
 //! What every kind shares (instructions, the reference phase, breaks,
 //! experimenter prompts, aborts, the write rule) is here. A live trial of
-//! each kind is one `LiveTrial` in its own module: `magnitude.rs`,
-//! `paired.rs`, `fitts.rs` (its start, timer, inputs and logged data).
+//! each kind is its kind's `crate::kinds::LiveTrial` (its start, timer,
+//! inputs and logged data), in the kind's module under `src/kinds/`.
 //!
 //! # Timers
 //! The engine owns its timers, as quinn-proto does: [`Engine::poll_timeout`]
@@ -32,29 +32,21 @@
 //! shell sends it once the record is on disk (flushed and synced), and only
 //! then does the next trial start.
 //!
-//! # Fitts targets
-//! Targets are centred at `-A/2` and `+A/2`; the first lit target is at
-//! `-A/2`. A click counts only if the cursor is inside the lit target:
-//! `|x - centre| <= W'/2` (W' = W - D or W, see the protocol's `tolerance`).
-//! A click outside is an error; its size is its distance beyond the
-//! tolerance, `|x - centre| - W'/2`. The lit target switches after each hit;
-//! completion time runs from the first hit to the last.
 
 use std::collections::VecDeque;
 use std::sync::Arc;
 
-use super::plan::{FittsTrial, Plan, PlannedTrial, TrialSpec};
-use super::{Design, Protocol};
+use super::Protocol;
+use super::plan::{Plan, PlannedTrial};
 use crate::friction::ModelParams;
+use crate::kinds::{LiveState, Next};
 
-mod fitts;
-mod magnitude;
-mod paired;
 mod record;
 mod source;
 
-pub use magnitude::parse_magnitude;
-pub use record::{Choice, Status, TrialData, TrialRecord};
+pub use crate::kinds::TrialData;
+pub use crate::kinds::magnitude::parse_magnitude;
+pub use record::{Choice, Status, TrialRecord};
 pub use source::{TrialSource, next_position};
 
 /// A participant's answer.
@@ -133,6 +125,8 @@ pub enum Screen {
         width_m: f64,
         /// Cursor diameter D, m.
         cursor_m: f64,
+        /// Width that counts for a hit, W' (W - D or W), m.
+        effective_width_m: f64,
         /// The last click missed.
         missed: bool,
     },
@@ -185,115 +179,6 @@ enum Stage {
 struct Live {
     started: f64,
     state: LiveState,
-}
-
-/// What a live trial does after an input or its timeout.
-#[derive(Debug)]
-enum Next {
-    /// Goes on.
-    Stay,
-    /// Ends, aborted for this reason or (`None`) completed.
-    Finish(Option<String>),
-}
-
-/// A trial of one kind, live: its state from start to record. Each kind's
-/// module (`magnitude.rs`, `paired.rs`, `fitts.rs`) implements it; the
-/// engine handles what every kind shares (instructions, breaks, prompts,
-/// aborts, the write rule).
-trait LiveTrial {
-    /// When the trial's timer is due, session time in s.
-    fn timeout(&self) -> Option<f64>;
-    /// The timer has fired at `now`.
-    fn on_timeout(&mut self, now: f64, out: &mut VecDeque<Action>) -> Next;
-    /// An input other than an abort, at `now`.
-    fn on_input(&mut self, now: f64, input: Input, out: &mut VecDeque<Action>) -> Next;
-    /// The data logged for the trial, ended at `now`.
-    fn data(&self, started: f64, now: f64, completed: bool) -> TrialData;
-}
-
-/// An exploration with a time limit, shared by the kinds that ask a
-/// question: at `until` the stimulus stops and the question is asked (once;
-/// `expired` marks it asked).
-#[derive(Debug, Clone)]
-struct Exploration {
-    until: f64,
-    expired: bool,
-}
-
-impl Exploration {
-    fn until(until: f64) -> Self {
-        Exploration {
-            until,
-            expired: false,
-        }
-    }
-
-    fn timeout(&self) -> Option<f64> {
-        (!self.expired).then_some(self.until)
-    }
-
-    /// The time is up: render nothing and ask `question`.
-    fn expire(&mut self, question: Question, out: &mut VecDeque<Action>) -> Next {
-        self.expired = true;
-        out.push_back(Action::Render(None));
-        out.push_back(Action::Ask(question));
-        Next::Stay
-    }
-}
-
-/// The live trial of each kind.
-#[derive(Debug, Clone)]
-enum LiveState {
-    Magnitude(magnitude::Explore),
-    Paired(Box<paired::Compare>),
-    Fitts(Box<fitts::Tapping>),
-}
-
-impl LiveState {
-    /// Starts `spec` at `now`, pushing what the shell must do.
-    fn start(spec: &TrialSpec, now: f64, out: &mut VecDeque<Action>) -> Self {
-        match spec {
-            TrialSpec::MagnitudeEstimation(t) => {
-                LiveState::Magnitude(magnitude::Explore::start(t, now, out))
-            }
-            TrialSpec::PairedComparison(t) => {
-                LiveState::Paired(Box::new(paired::Compare::start(t, now, out)))
-            }
-            TrialSpec::Fitts(t) => LiveState::Fitts(Box::new(fitts::Tapping::start(t, now, out))),
-        }
-    }
-
-    fn trial(&self) -> &dyn LiveTrial {
-        match self {
-            LiveState::Magnitude(t) => t,
-            LiveState::Paired(t) => t.as_ref(),
-            LiveState::Fitts(t) => t.as_ref(),
-        }
-    }
-
-    fn trial_mut(&mut self) -> &mut dyn LiveTrial {
-        match self {
-            LiveState::Magnitude(t) => t,
-            LiveState::Paired(t) => t.as_mut(),
-            LiveState::Fitts(t) => t.as_mut(),
-        }
-    }
-
-    fn timeout(&self) -> Option<f64> {
-        self.trial().timeout()
-    }
-
-    fn on_timeout(&mut self, now: f64, out: &mut VecDeque<Action>) -> Next {
-        self.trial_mut().on_timeout(now, out)
-    }
-
-    fn on_input(&mut self, now: f64, input: Input, out: &mut VecDeque<Action>) -> Next {
-        self.trial_mut().on_input(now, input, out)
-    }
-
-    fn data(&self, started: f64, now: f64, completed: bool) -> TrialData {
-        self.trial().data(started, now, completed)
-    }
 }
 
 /// The session engine.
@@ -471,13 +356,12 @@ impl Engine {
     }
 
     fn after_instructions(&mut self, now: f64) -> Stage {
-        if let Design::PairedComparison(d) = &self.protocol.design
+        if let Some((instructions, duration)) = self.protocol.design.reference()
             && self.next == 0
-            && d.reference_s > 0.0
         {
-            let until = now + d.reference_s;
+            let until = now + duration;
             self.out.push_back(Action::Show(Screen::Reference {
-                instructions: d.reference_instructions.clone(),
+                instructions: instructions.to_owned(),
                 until_s: until,
             }));
             return Stage::Reference { until };
@@ -501,11 +385,8 @@ impl Engine {
                 .push_back(Action::Show(Screen::Break { until_s: until }));
             return Stage::Break { until };
         }
-        if let TrialSpec::Fitts(FittsTrial {
-            prompt: Some(text), ..
-        }) = &trial.spec
-        {
-            self.out.push_back(Action::Prompt(text.clone()));
+        if let Some(text) = trial.spec.prompt() {
+            self.out.push_back(Action::Prompt(text.to_owned()));
             return Stage::Prompt;
         }
         self.start_live(now)

@@ -3,6 +3,8 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use crate::kinds::TrialData;
+
 /// A paired-comparison answer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
@@ -78,67 +80,4 @@ pub struct TrialRecord {
     pub ended_s: f64,
     /// What was presented and answered.
     pub data: TrialData,
-}
-
-/// The kind-specific part of a record.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
-pub enum TrialData {
-    /// Paired comparison.
-    PairedComparison {
-        /// Condition presented first.
-        first: String,
-        /// Condition presented second.
-        second: String,
-        /// The answer.
-        choice: Option<Choice>,
-        /// The chosen condition id, or `no_difference`.
-        chosen: Option<String>,
-    },
-    /// Magnitude estimation.
-    MagnitudeEstimation {
-        /// Display name.
-        display: String,
-        /// Static coefficient.
-        mu_s: f64,
-        /// Kinetic coefficient.
-        mu_k: f64,
-        /// mu_s - mu_k.
-        delta_mu: f64,
-        /// The number given.
-        magnitude: Option<f64>,
-        /// Time from the start of the stimulus to the answer, s.
-        response_time_s: Option<f64>,
-    },
-    /// Fitts test.
-    Fitts {
-        /// Condition id.
-        condition: String,
-        /// A, m.
-        amplitude_m: f64,
-        /// W, m.
-        width_m: f64,
-        /// D, m.
-        cursor_m: f64,
-        /// W', m.
-        effective_width_m: f64,
-        /// Index of difficulty, bits.
-        id_bits: f64,
-        /// First to last hit, s.
-        completion_time_s: Option<f64>,
-        /// Hits.
-        taps: u32,
-        /// Clicks outside the lit target.
-        errors: u32,
-        /// Mean error size, m (None without errors).
-        mean_error_m: Option<f64>,
-        /// Session time of each hit, s.
-        tap_times_s: Vec<f64>,
-        /// Cursor position of each hit, m.
-        tap_x_m: Vec<f64>,
-        /// Centre of the target of each hit, m.
-        target_x_m: Vec<f64>,
-        /// Cursor position of each miss, m.
-        miss_x_m: Vec<f64>,
-    },
 }

@@ -1,0 +1,541 @@
+//! Fitts reciprocal targeting (seed 002): tapping tests between two
+//! targets under friction conditions, each difficulty level (distance x
+//! width) once per condition, after an optional practice block.
+//!
+//! Live: the condition's model is rendered, each hit switches the lit
+//! target, and the test ends after its taps or at its time limit (aborted,
+//! reason `timeout`). Targets are centred at `-A/2` and `+A/2`; the first
+//! lit target is at `-A/2`. A click counts only if the cursor is inside the
+//! lit target: `|x - centre| <= W'/2` (W' = W - D or W, see the protocol's
+//! `tolerance`). A click outside is an error; its size is its distance
+//! beyond the tolerance, `|x - centre| - W'/2`. Completion time runs from
+//! the first hit to the last.
+
+use std::collections::VecDeque;
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use super::{AnalysisEntry, Block, LiveTrial, Next, StudyKind};
+use crate::analysis::{Section, report};
+use crate::friction::ModelParams;
+use crate::protocol::check::Checks;
+use crate::protocol::engine::{Action, Input, Screen};
+use crate::protocol::load::{Walk, join};
+
+/// The Fitts kind.
+#[derive(Debug)]
+pub struct Fitts;
+
+/// Seed 002's Fitts reciprocal targeting.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FittsDesign {
+    /// Cursor diameter D, m.
+    pub cursor_m: f64,
+    /// Successful taps per test.
+    pub taps: u32,
+    /// Index of difficulty formula.
+    #[serde(default)]
+    pub id_formula: IdFormula,
+    /// Target tolerance used for hits and the index of difficulty.
+    #[serde(default)]
+    pub tolerance: Tolerance,
+    /// Longest time for one test before it is ended, s.
+    #[serde(default = "fitts_timeout")]
+    pub timeout_s: f64,
+    /// Friction conditions.
+    pub conditions: Vec<FittsCondition>,
+    /// Difficulty levels (distance x width).
+    pub levels: Vec<FittsLevel>,
+    /// Practice block run first, excluded from analysis: condition ids, each
+    /// with `practice_levels` (all levels if empty).
+    #[serde(default)]
+    pub practice: Vec<String>,
+    /// Level indices used in practice (empty: all).
+    #[serde(default)]
+    pub practice_levels: Vec<usize>,
+}
+
+fn fitts_timeout() -> f64 {
+    60.0
+}
+
+/// A Fitts friction condition.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FittsCondition {
+    /// Condition id (`baseline`, `real`, `simulated`, ...).
+    pub id: String,
+    /// The rendered model (`none` for a physical condition).
+    pub model: ModelParams,
+    /// A prompt to the experimenter before each test of this condition
+    /// (e.g. to attach the aluminum block for `real`); the runner waits for
+    /// the experimenter to continue.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prompt: Option<String>,
+    /// For the simulated device: the friction a physical condition adds
+    /// (e.g. the aluminum block on rubber); it is not rendered, it is part of
+    /// the simulated apparatus. Ignored on a real device.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub physical: Option<ModelParams>,
+}
+
+/// A Fitts difficulty level.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FittsLevel {
+    /// Distance A between target centres, m.
+    pub amplitude_m: f64,
+    /// Target width W, m (> cursor diameter).
+    pub width_m: f64,
+}
+
+/// Index of difficulty formula (the seed's formula was lost in extraction).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum IdFormula {
+    /// Shannon: log2(A / W' + 1) (ISO 9241-9).
+    #[default]
+    Shannon,
+    /// Fitts: log2(2 A / W').
+    Fitts,
+}
+
+/// Which width W' counts for hits and for the index of difficulty.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Tolerance {
+    /// W' = W - D: the whole cursor must be inside the target.
+    #[default]
+    WidthMinusCursor,
+    /// W' = W: the cursor's centre must be inside the target.
+    Width,
+}
+
+impl FittsDesign {
+    /// Effective target width W' for hits and ID, m.
+    #[must_use]
+    pub fn effective_width(&self, width_m: f64) -> f64 {
+        match self.tolerance {
+            Tolerance::WidthMinusCursor => width_m - self.cursor_m,
+            Tolerance::Width => width_m,
+        }
+    }
+
+    /// Index of difficulty of a level, bits.
+    #[must_use]
+    pub fn id_bits(&self, level: FittsLevel) -> f64 {
+        let w = self.effective_width(level.width_m);
+        match self.id_formula {
+            IdFormula::Shannon => (level.amplitude_m / w + 1.0).log2(),
+            IdFormula::Fitts => (2.0 * level.amplitude_m / w).log2(),
+        }
+    }
+}
+
+/// One reciprocal tapping test of a Fitts study.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FittsTrial {
+    /// Condition id.
+    pub condition: String,
+    /// The rendered model.
+    pub model: ModelParams,
+    /// Experimenter prompt before the test.
+    pub prompt: Option<String>,
+    /// Physical friction of the condition (simulated device only).
+    pub physical: Option<ModelParams>,
+    /// Distance between target centres A, m.
+    pub amplitude_m: f64,
+    /// Target width W, m.
+    pub width_m: f64,
+    /// Cursor diameter D, m.
+    pub cursor_m: f64,
+    /// Width that counts for hits, W' (W - D or W), m.
+    pub effective_width_m: f64,
+    /// Index of difficulty, bits.
+    pub id_bits: f64,
+    /// Successful taps to complete the test.
+    pub taps: u32,
+    /// Longest duration of the test, s.
+    pub timeout_s: f64,
+}
+
+/// What a Fitts test logs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FittsData {
+    /// Condition id.
+    pub condition: String,
+    /// A, m.
+    pub amplitude_m: f64,
+    /// W, m.
+    pub width_m: f64,
+    /// D, m.
+    pub cursor_m: f64,
+    /// W', m.
+    pub effective_width_m: f64,
+    /// Index of difficulty, bits.
+    pub id_bits: f64,
+    /// First to last hit, s.
+    pub completion_time_s: Option<f64>,
+    /// Hits.
+    pub taps: u32,
+    /// Clicks outside the lit target.
+    pub errors: u32,
+    /// Mean error size, m (None without errors).
+    pub mean_error_m: Option<f64>,
+    /// Session time of each hit, s.
+    pub tap_times_s: Vec<f64>,
+    /// Cursor position of each hit, m.
+    pub tap_x_m: Vec<f64>,
+    /// Centre of the target of each hit, m.
+    pub target_x_m: Vec<f64>,
+    /// Cursor position of each miss, m.
+    pub miss_x_m: Vec<f64>,
+}
+
+impl StudyKind for Fitts {
+    type Design = FittsDesign;
+    type Trial = FittsTrial;
+    type Live = Tapping;
+    type Data = FittsData;
+
+    const COLUMNS: &'static [&'static str] = &[
+        "condition",
+        "amplitude_m",
+        "width_m",
+        "cursor_m",
+        "effective_width_m",
+        "id_bits",
+        "completion_time_s",
+        "taps",
+        "errors",
+        "mean_error_m",
+        "tap_times_s",
+        "tap_x_m",
+        "target_x_m",
+        "miss_x_m",
+    ];
+
+    const ANALYSIS: Option<AnalysisEntry> = Some(AnalysisEntry {
+        marker: "id_bits",
+        unread: &["cursor_m", "effective_width_m", "miss_x_m"],
+        run: |rows, _| {
+            let f = crate::analysis::fitts::analyze(rows)?;
+            Ok(Section {
+                html: report::fitts_section(&f),
+                summary: f.summary,
+                notes: f.notes,
+                tables: f.tables,
+            })
+        },
+    });
+
+    fn read(w: &mut Walk, v: &Value, path: &str) -> Option<FittsDesign> {
+        let keys = [
+            "kind",
+            "cursor_m",
+            "taps",
+            "id_formula",
+            "tolerance",
+            "timeout_s",
+            "conditions",
+            "levels",
+            "practice",
+            "practice_levels",
+        ];
+        let m = w.object(v, path, &keys)?;
+        let cursor_m = w.required(m, "cursor_m", path);
+        let taps = w.required(m, "taps", path);
+        let id_formula = w.optional(m, "id_formula", path, IdFormula::default());
+        let tolerance = w.optional(m, "tolerance", path, Tolerance::default());
+        let timeout_s = w.optional(m, "timeout_s", path, fitts_timeout());
+        let conditions = w.list(m, "conditions", path, |w, v, p| {
+            let m = w.object(v, p, &["id", "model", "prompt", "physical"])?;
+            let id = w.required::<String>(m, "id", p);
+            let model = w.model_field(m, "model", p);
+            let prompt = w.optional::<Option<String>>(m, "prompt", p, None);
+            let physical = match m.get("physical") {
+                Some(v) => w.model(v, &join(p, "physical")).map(Some),
+                None => Some(None),
+            };
+            Some(FittsCondition {
+                id: id?,
+                model: model?,
+                prompt: prompt?,
+                physical: physical?,
+            })
+        });
+        let levels = w.list(m, "levels", path, Walk::value::<FittsLevel>);
+        let practice = w.optional(m, "practice", path, Vec::<String>::new());
+        let practice_levels = w.optional(m, "practice_levels", path, Vec::<usize>::new());
+        Some(FittsDesign {
+            cursor_m: cursor_m?,
+            taps: taps?,
+            id_formula: id_formula?,
+            tolerance: tolerance?,
+            timeout_s: timeout_s?,
+            conditions: conditions?,
+            levels: levels?,
+            practice: practice?,
+            practice_levels: practice_levels?,
+        })
+    }
+
+    fn check(d: &FittsDesign, c: &mut Checks) {
+        c.positive("cursor_m", d.cursor_m);
+        c.positive("timeout_s", d.timeout_s);
+        if d.taps < 2 {
+            c.err(
+                "taps",
+                format!(
+                    "must be at least 2 (a completion time needs a first and a last tap), got {}",
+                    d.taps
+                ),
+            );
+        }
+        let ids = c.condition_ids("conditions", d.conditions.iter().map(|c| c.id.as_str()));
+        if d.levels.is_empty() {
+            c.err("levels", "no levels: the protocol has zero trials");
+        }
+        for (i, level) in d.levels.iter().enumerate() {
+            let path = format!("levels[{i}]");
+            c.positive(&format!("{path}.amplitude_m"), level.amplitude_m);
+            c.positive(&format!("{path}.width_m"), level.width_m);
+            if level.width_m.is_finite() && d.effective_width(level.width_m) <= 0.0 {
+                c.err(
+                    &format!("{path}.width_m"),
+                    format!(
+                        "target width {} m must exceed the cursor diameter {} m",
+                        level.width_m, d.cursor_m
+                    ),
+                );
+            }
+            if level.amplitude_m <= level.width_m {
+                c.err(
+                    &format!("{path}.amplitude_m"),
+                    format!(
+                        "targets overlap: distance {} m must exceed width {} m",
+                        level.amplitude_m, level.width_m
+                    ),
+                );
+            }
+        }
+        for (i, id) in d.practice.iter().enumerate() {
+            if !ids.contains(id.as_str()) {
+                c.err(
+                    &format!("practice[{i}]"),
+                    format!("unknown condition '{id}'"),
+                );
+            }
+        }
+        for (i, &l) in d.practice_levels.iter().enumerate() {
+            if l >= d.levels.len() {
+                c.err(
+                    &format!("practice_levels[{i}]"),
+                    format!("level {l} does not exist ({} levels)", d.levels.len()),
+                );
+            }
+        }
+    }
+
+    /// A `practice` block (if any: the practice conditions at
+    /// `practice_levels`, all levels if empty), then `main`: every
+    /// condition at every level.
+    fn blocks(d: &FittsDesign) -> Vec<Block<FittsTrial>> {
+        let test = |c: &FittsCondition, l: FittsLevel| FittsTrial {
+            condition: c.id.clone(),
+            model: c.model.clone(),
+            prompt: c.prompt.clone(),
+            physical: c.physical.clone(),
+            amplitude_m: l.amplitude_m,
+            width_m: l.width_m,
+            cursor_m: d.cursor_m,
+            effective_width_m: d.effective_width(l.width_m),
+            id_bits: d.id_bits(l),
+            taps: d.taps,
+            timeout_s: d.timeout_s,
+        };
+        let mut out = Vec::new();
+        if !d.practice.is_empty() {
+            let levels: Vec<usize> = if d.practice_levels.is_empty() {
+                (0..d.levels.len()).collect()
+            } else {
+                d.practice_levels.clone()
+            };
+            let trials = d
+                .practice
+                .iter()
+                .filter_map(|id| d.conditions.iter().find(|c| &c.id == id))
+                .flat_map(|c| {
+                    levels
+                        .iter()
+                        .filter_map(|&l| d.levels.get(l))
+                        .map(|&l| test(c, l))
+                })
+                .collect();
+            out.push(Block {
+                name: "practice".into(),
+                practice: true,
+                trials,
+            });
+        }
+        let trials = d
+            .conditions
+            .iter()
+            .flat_map(|c| d.levels.iter().map(move |&l| test(c, l)))
+            .collect();
+        out.push(Block {
+            name: "main".into(),
+            practice: false,
+            trials,
+        });
+        out
+    }
+
+    fn prompt(t: &FittsTrial) -> Option<&str> {
+        t.prompt.as_deref()
+    }
+
+    fn loop_rate_hz(t: &FittsTrial) -> f64 {
+        t.model.loop_rate_hz()
+    }
+
+    fn start(trial: &FittsTrial, now: f64, out: &mut VecDeque<Action>) -> Tapping {
+        Tapping::begin(trial, now, out)
+    }
+
+    fn row(d: &FittsData) -> Vec<String> {
+        use crate::results::csv::{list, opt, text};
+        vec![
+            text(&d.condition),
+            d.amplitude_m.to_string(),
+            d.width_m.to_string(),
+            d.cursor_m.to_string(),
+            d.effective_width_m.to_string(),
+            d.id_bits.to_string(),
+            opt(d.completion_time_s),
+            d.taps.to_string(),
+            d.errors.to_string(),
+            opt(d.mean_error_m),
+            list(&d.tap_times_s),
+            list(&d.tap_x_m),
+            list(&d.target_x_m),
+            list(&d.miss_x_m),
+        ]
+    }
+}
+
+/// The live state.
+#[derive(Debug, Clone)]
+pub struct Tapping {
+    trial: FittsTrial,
+    lit: usize,
+    centres: [f64; 2],
+    deadline: f64,
+    tap_times: Vec<f64>,
+    tap_x: Vec<f64>,
+    target_x: Vec<f64>,
+    miss_x: Vec<f64>,
+    miss_size: Vec<f64>,
+}
+
+impl Tapping {
+    /// Sets the condition's physical friction, renders its model and lights
+    /// the target at `-A/2`.
+    fn begin(trial: &FittsTrial, now: f64, out: &mut VecDeque<Action>) -> Self {
+        let a = trial.amplitude_m;
+        let t = Tapping {
+            trial: trial.clone(),
+            lit: 0,
+            centres: [-a / 2.0, a / 2.0],
+            deadline: now + trial.timeout_s,
+            tap_times: Vec::new(),
+            tap_x: Vec::new(),
+            target_x: Vec::new(),
+            miss_x: Vec::new(),
+            miss_size: Vec::new(),
+        };
+        out.push_back(Action::Physical(trial.physical.clone()));
+        out.push_back(Action::Render(Some(trial.model.clone())));
+        out.push_back(t.screen(false));
+        t
+    }
+
+    fn screen(&self, missed: bool) -> Action {
+        Action::Show(Screen::Fitts {
+            lit_m: self.centres[self.lit],
+            other_m: self.centres[1 - self.lit],
+            width_m: self.trial.width_m,
+            cursor_m: self.trial.cursor_m,
+            effective_width_m: self.trial.effective_width_m,
+            missed,
+        })
+    }
+
+    fn click(&mut self, now: f64, x: f64, out: &mut VecDeque<Action>) -> Next {
+        let half = self.trial.effective_width_m / 2.0;
+        let centre = self.centres[self.lit];
+        let distance = (x - centre).abs();
+        let hit = distance <= half;
+        if hit {
+            self.tap_times.push(now);
+            self.tap_x.push(x);
+            self.target_x.push(centre);
+            if self.tap_times.len() >= self.trial.taps as usize {
+                return Next::Finish(None);
+            }
+            self.lit = 1 - self.lit;
+        } else {
+            self.miss_x.push(x);
+            self.miss_size.push(distance - half);
+        }
+        out.push_back(self.screen(!hit));
+        Next::Stay
+    }
+}
+
+impl LiveTrial for Tapping {
+    type Data = FittsData;
+
+    fn timeout(&self) -> Option<f64> {
+        Some(self.deadline)
+    }
+
+    fn on_timeout(&mut self, _now: f64, _out: &mut VecDeque<Action>) -> Next {
+        Next::Finish(Some("timeout".into()))
+    }
+
+    fn on_input(&mut self, now: f64, input: Input, out: &mut VecDeque<Action>) -> Next {
+        match input {
+            Input::Click { x_m } if x_m.is_finite() => self.click(now, x_m, out),
+            _ => Next::Stay,
+        }
+    }
+
+    fn data(&self, _started: f64, _now: f64, completed: bool) -> FittsData {
+        let g = &self.trial;
+        let errors = self.miss_size.len();
+        FittsData {
+            condition: g.condition.clone(),
+            amplitude_m: g.amplitude_m,
+            width_m: g.width_m,
+            cursor_m: g.cursor_m,
+            effective_width_m: g.effective_width_m,
+            id_bits: g.id_bits,
+            completion_time_s: match (self.tap_times.first(), self.tap_times.last()) {
+                (Some(a), Some(b)) if completed => Some(b - a),
+                _ => None,
+            },
+            taps: u32::try_from(self.tap_times.len()).unwrap_or(u32::MAX),
+            errors: u32::try_from(errors).unwrap_or(u32::MAX),
+            mean_error_m: (errors > 0).then(|| self.miss_size.iter().sum::<f64>() / errors as f64),
+            tap_times_s: self.tap_times.clone(),
+            tap_x_m: self.tap_x.clone(),
+            target_x_m: self.target_x.clone(),
+            miss_x_m: self.miss_x.clone(),
+        }
+    }
+}

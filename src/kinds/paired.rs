@@ -1,0 +1,265 @@
+//! Paired comparison (seed 000): two renderings per trial, presented in an
+//! order drawn per trial; the participant says which is nearer to a real
+//! surface, or no difference.
+//!
+//! Live: the first stimulus is rendered, the participant switches between
+//! the two until the exploration time (twice each stimulus's) is up, then
+//! chooses; a choice may come at any time.
+
+use std::collections::VecDeque;
+
+use rand::RngExt;
+use rand_chacha::ChaCha8Rng;
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use super::{AnalysisEntry, Block, Exploration, LiveTrial, Next, StudyKind};
+use crate::analysis::{Section, report};
+use crate::protocol::Condition;
+use crate::protocol::check::Checks;
+use crate::protocol::engine::{Action, Answer, Choice, Input, Question, Screen};
+use crate::protocol::load::Walk;
+
+/// The paired-comparison kind.
+#[derive(Debug)]
+pub struct Paired;
+
+/// Seed 000's paired comparison.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PairedDesign {
+    /// Reference phase before the first trial (sliding on a real surface), s.
+    pub reference_s: f64,
+    /// What the participant does in the reference phase.
+    pub reference_instructions: String,
+    /// Longest exploration of each stimulus of a pair, s.
+    pub exploration_s: f64,
+    /// The renderings compared.
+    pub conditions: Vec<Condition>,
+    /// The pairs, by condition id; each is one trial, its two members
+    /// presented in random order.
+    pub pairs: Vec<[String; 2]>,
+}
+
+/// One paired-comparison trial: two renderings, in presentation order.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PairedTrial {
+    /// Presented first.
+    pub first: Condition,
+    /// Presented second.
+    pub second: Condition,
+    /// Longest exploration of each, s.
+    pub exploration_s: f64,
+}
+
+/// What a paired-comparison trial logs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PairedData {
+    /// Condition presented first.
+    pub first: String,
+    /// Condition presented second.
+    pub second: String,
+    /// The answer.
+    pub choice: Option<Choice>,
+    /// The chosen condition id, or `no_difference`.
+    pub chosen: Option<String>,
+}
+
+impl StudyKind for Paired {
+    type Design = PairedDesign;
+    type Trial = PairedTrial;
+    type Live = Compare;
+    type Data = PairedData;
+
+    const COLUMNS: &'static [&'static str] = &["first", "second", "choice", "chosen"];
+
+    const ANALYSIS: Option<AnalysisEntry> = Some(AnalysisEntry {
+        marker: "choice",
+        unread: &[],
+        run: |rows, _| {
+            let p = crate::analysis::paired::analyze(rows)?;
+            Ok(Section {
+                html: report::paired_section(&p),
+                summary: p.summary,
+                notes: p.notes,
+                tables: p.tables,
+            })
+        },
+    });
+
+    fn read(w: &mut Walk, v: &Value, path: &str) -> Option<PairedDesign> {
+        let keys = [
+            "kind",
+            "reference_s",
+            "reference_instructions",
+            "exploration_s",
+            "conditions",
+            "pairs",
+        ];
+        let m = w.object(v, path, &keys)?;
+        let reference_s = w.required(m, "reference_s", path);
+        let reference_instructions = w.required(m, "reference_instructions", path);
+        let exploration_s = w.required(m, "exploration_s", path);
+        let conditions = w.list(m, "conditions", path, Walk::condition);
+        let pairs = w.list(m, "pairs", path, Walk::value::<[String; 2]>);
+        Some(PairedDesign {
+            reference_s: reference_s?,
+            reference_instructions: reference_instructions?,
+            exploration_s: exploration_s?,
+            conditions: conditions?,
+            pairs: pairs?,
+        })
+    }
+
+    fn check(d: &PairedDesign, c: &mut Checks) {
+        c.non_negative("reference_s", d.reference_s);
+        c.positive("exploration_s", d.exploration_s);
+        let ids = c.condition_ids("conditions", d.conditions.iter().map(|c| c.id.as_str()));
+        if d.pairs.is_empty() {
+            c.err("pairs", "no pairs: the protocol has zero trials");
+        }
+        for (i, [a, b]) in d.pairs.iter().enumerate() {
+            for (j, id) in [a, b].iter().enumerate() {
+                if !ids.contains(id.as_str()) {
+                    c.err(
+                        &format!("pairs[{i}][{j}]"),
+                        format!("unknown condition '{id}'"),
+                    );
+                }
+            }
+            if a == b {
+                c.err(
+                    &format!("pairs[{i}]"),
+                    "a pair needs two different conditions",
+                );
+            }
+        }
+    }
+
+    /// One block, `main`: the pairs as listed.
+    fn blocks(d: &PairedDesign) -> Vec<Block<PairedTrial>> {
+        let find = |id: &str| d.conditions.iter().find(|c| c.id == id).cloned();
+        let trials = d
+            .pairs
+            .iter()
+            .filter_map(|[a, b]| {
+                Some(PairedTrial {
+                    first: find(a)?,
+                    second: find(b)?,
+                    exploration_s: d.exploration_s,
+                })
+            })
+            .collect();
+        vec![Block {
+            name: "main".into(),
+            practice: false,
+            trials,
+        }]
+    }
+
+    /// The two members' presentation order, drawn per trial (the seed's
+    /// "random order").
+    fn draw(t: PairedTrial, rng: &mut ChaCha8Rng) -> PairedTrial {
+        if rng.random_bool(0.5) {
+            PairedTrial {
+                first: t.second,
+                second: t.first,
+                exploration_s: t.exploration_s,
+            }
+        } else {
+            t
+        }
+    }
+
+    fn reference(d: &PairedDesign) -> Option<(&str, f64)> {
+        (d.reference_s > 0.0).then_some((d.reference_instructions.as_str(), d.reference_s))
+    }
+
+    fn loop_rate_hz(t: &PairedTrial) -> f64 {
+        t.first
+            .model
+            .loop_rate_hz()
+            .max(t.second.model.loop_rate_hz())
+    }
+
+    /// Renders the first stimulus and shows the comparison screen until
+    /// `now + 2 exploration_s`.
+    fn start(trial: &PairedTrial, now: f64, out: &mut VecDeque<Action>) -> Compare {
+        let PairedTrial { first, second, .. } = trial;
+        let until = now + 2.0 * trial.exploration_s;
+        out.push_back(Action::Render(Some(first.model.clone())));
+        out.push_back(Action::Show(Screen::Paired {
+            active: 0,
+            until_s: until,
+        }));
+        Compare {
+            conditions: [first.clone(), second.clone()],
+            time: Exploration::until(until),
+            choice: None,
+        }
+    }
+
+    fn row(d: &PairedData) -> Vec<String> {
+        use crate::results::csv::{opt, text};
+        vec![
+            text(&d.first),
+            text(&d.second),
+            opt(d.choice.map(Choice::as_str)),
+            opt(d.chosen.as_deref()),
+        ]
+    }
+}
+
+/// The live state; `time` asks the question when the exploration is over.
+#[derive(Debug, Clone)]
+pub struct Compare {
+    conditions: [Condition; 2],
+    time: Exploration,
+    choice: Option<Choice>,
+}
+
+impl LiveTrial for Compare {
+    type Data = PairedData;
+
+    fn timeout(&self) -> Option<f64> {
+        self.time.timeout()
+    }
+
+    fn on_timeout(&mut self, _now: f64, out: &mut VecDeque<Action>) -> Next {
+        self.time.expire(Question::PairedChoice, out)
+    }
+
+    fn on_input(&mut self, now: f64, input: Input, out: &mut VecDeque<Action>) -> Next {
+        match input {
+            Input::Switch(i) if i < 2 && now < self.time.until => {
+                out.push_back(Action::Render(Some(self.conditions[i].model.clone())));
+                out.push_back(Action::Show(Screen::Paired {
+                    active: i,
+                    until_s: self.time.until,
+                }));
+                Next::Stay
+            }
+            Input::Answer(Answer::Paired(c)) => {
+                self.choice = Some(c);
+                Next::Finish(None)
+            }
+            _ => Next::Stay,
+        }
+    }
+
+    fn data(&self, _started: f64, _now: f64, _completed: bool) -> PairedData {
+        let [first, second] = &self.conditions;
+        PairedData {
+            first: first.id.clone(),
+            second: second.id.clone(),
+            choice: self.choice,
+            chosen: self.choice.map(|c| match c {
+                Choice::First => first.id.clone(),
+                Choice::Second => second.id.clone(),
+                Choice::NoDifference => "no_difference".to_owned(),
+            }),
+        }
+    }
+}

@@ -1,0 +1,470 @@
+//! Issue 13's toy fourth kind, compiled for tests only: a 1-up-1-down
+//! staircase over the comparison's static coefficient mu_s. Each trial
+//! pairs a stick-slip reference with a comparison whose mu_s exceeds the
+//! reference's by the current difference, in an order drawn per trial; the
+//! participant picks the one that felt stronger. A pick of the comparison
+//! lowers the difference by one step (not below one step), any other
+//! answer raises it; the session ends after `reversals` reversals.
+//!
+//! It reuses the paired comparison's live trial and screens, so it needs no
+//! engine, participant or GUI code. Its trials come from its own
+//! [`TrialSource`], whose state (difference, reversals) is rebuilt from the
+//! logged answers on resume. It has no analysis entry.
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use super::paired::{Compare, Paired, PairedData, PairedTrial};
+use super::{LiveTrial, Next, StudyKind, TrialData};
+use crate::friction::{ModelParams, NakanoParams};
+use crate::protocol::check::Checks;
+use crate::protocol::engine::{Action, Input, Status, TrialRecord, TrialSource};
+use crate::protocol::load::Walk;
+use crate::protocol::plan::PlannedTrial;
+use crate::protocol::{Condition, Protocol};
+
+/// The toy staircase kind.
+#[derive(Debug)]
+pub struct Staircase;
+
+/// The staircase's design.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct StaircaseDesign {
+    /// The reference rendering (a stick-slip model).
+    pub reference: ModelParams,
+    /// First difference of the comparison's mu_s over the reference's.
+    pub start_delta: f64,
+    /// Step of the difference (also its floor).
+    pub step: f64,
+    /// Reversals after which the session ends.
+    pub reversals: u32,
+    /// Longest exploration of each stimulus, s.
+    pub exploration_s: f64,
+}
+
+/// One staircase trial: the pair, and the difference it presents.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StaircaseTrial {
+    /// The two renderings, in presentation order.
+    pub pair: PairedTrial,
+    /// The comparison's mu_s minus the reference's.
+    pub delta_mu_s: f64,
+}
+
+/// What a staircase trial logs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct StaircaseData {
+    /// The difference presented.
+    pub delta_mu_s: f64,
+    /// The answer, as a paired comparison logs it.
+    pub answer: PairedData,
+}
+
+/// The live trial: a paired comparison that remembers its difference.
+#[derive(Debug, Clone)]
+pub struct Track {
+    compare: Compare,
+    delta_mu_s: f64,
+}
+
+/// `model` (a stick-slip one) with static coefficient `mu_s`.
+fn with_mu_s(model: &ModelParams, mu_s: f64) -> ModelParams {
+    match model {
+        ModelParams::StickSlipTactile(p) => {
+            ModelParams::StickSlipTactile(NakanoParams { mu_s, ..*p })
+        }
+        ModelParams::StickSlipForce(p) => ModelParams::StickSlipForce(NakanoParams { mu_s, ..*p }),
+        other => other.clone(),
+    }
+}
+
+/// The static coefficient of a stick-slip model.
+fn reference_mu_s(model: &ModelParams) -> Option<f64> {
+    match model {
+        ModelParams::StickSlipTactile(p) | ModelParams::StickSlipForce(p) => Some(p.mu_s),
+        _ => None,
+    }
+}
+
+impl StudyKind for Staircase {
+    type Design = StaircaseDesign;
+    type Trial = StaircaseTrial;
+    type Live = Track;
+    type Data = StaircaseData;
+
+    const COLUMNS: &'static [&'static str] = &["delta_mu_s", "first", "second", "choice", "chosen"];
+
+    fn read(w: &mut Walk, v: &Value, path: &str) -> Option<StaircaseDesign> {
+        let keys = [
+            "kind",
+            "reference",
+            "start_delta",
+            "step",
+            "reversals",
+            "exploration_s",
+        ];
+        let m = w.object(v, path, &keys)?;
+        let reference = w.model_field(m, "reference", path);
+        let start_delta = w.required(m, "start_delta", path);
+        let step = w.required(m, "step", path);
+        let reversals = w.required(m, "reversals", path);
+        let exploration_s = w.required(m, "exploration_s", path);
+        Some(StaircaseDesign {
+            reference: reference?,
+            start_delta: start_delta?,
+            step: step?,
+            reversals: reversals?,
+            exploration_s: exploration_s?,
+        })
+    }
+
+    fn check(d: &StaircaseDesign, c: &mut Checks) {
+        if reference_mu_s(&d.reference).is_none() {
+            c.err("reference.model", "the reference needs a stick-slip model");
+        }
+        c.positive("start_delta", d.start_delta);
+        c.positive("step", d.step);
+        c.positive("exploration_s", d.exploration_s);
+        if d.reversals == 0 {
+            c.err("reversals", "must be at least 1");
+        }
+    }
+
+    fn source(
+        _protocol: &Protocol,
+        design: &StaircaseDesign,
+        seed: u64,
+        _participant_index: u32,
+    ) -> Arc<dyn TrialSource> {
+        Arc::new(Source {
+            design: design.clone(),
+            seed,
+        })
+    }
+
+    fn loop_rate_hz(t: &StaircaseTrial) -> f64 {
+        Paired::loop_rate_hz(&t.pair)
+    }
+
+    fn start(t: &StaircaseTrial, now: f64, out: &mut VecDeque<Action>) -> Track {
+        Track {
+            compare: Paired::start(&t.pair, now, out),
+            delta_mu_s: t.delta_mu_s,
+        }
+    }
+
+    fn row(d: &StaircaseData) -> Vec<String> {
+        let mut row = vec![d.delta_mu_s.to_string()];
+        row.extend(Paired::row(&d.answer));
+        row
+    }
+}
+
+impl LiveTrial for Track {
+    type Data = StaircaseData;
+
+    fn timeout(&self) -> Option<f64> {
+        self.compare.timeout()
+    }
+
+    fn on_timeout(&mut self, now: f64, out: &mut VecDeque<Action>) -> Next {
+        self.compare.on_timeout(now, out)
+    }
+
+    fn on_input(&mut self, now: f64, input: Input, out: &mut VecDeque<Action>) -> Next {
+        self.compare.on_input(now, input, out)
+    }
+
+    fn data(&self, started: f64, now: f64, completed: bool) -> StaircaseData {
+        StaircaseData {
+            delta_mu_s: self.delta_mu_s,
+            answer: self.compare.data(started, now, completed),
+        }
+    }
+}
+
+/// The staircase's trials: a pure function of the design, the plan seed
+/// and the logged answers.
+#[derive(Debug)]
+struct Source {
+    design: StaircaseDesign,
+    seed: u64,
+}
+
+impl Source {
+    /// Replays the logged answers: the current difference and the reversals
+    /// so far.
+    fn track(&self, history: &[TrialRecord]) -> (f64, u32) {
+        let d = &self.design;
+        let (mut delta, mut reversals, mut last) = (d.start_delta, 0, None);
+        for r in history
+            .iter()
+            .filter(|r| !r.requeued && r.status == Status::Completed)
+        {
+            let TrialData::Staircase(data) = &r.data else {
+                continue;
+            };
+            let down = data.answer.chosen.as_deref() == Some("comparison");
+            if last.is_some_and(|l| l != down) {
+                reversals += 1;
+            }
+            last = Some(down);
+            delta = if down { delta - d.step } else { delta + d.step }.max(d.step);
+        }
+        (delta, reversals)
+    }
+}
+
+impl TrialSource for Source {
+    fn trial(&self, index: usize, history: &[TrialRecord]) -> Option<PlannedTrial> {
+        let d = &self.design;
+        let (delta, reversals) = self.track(history);
+        let base = reference_mu_s(&d.reference)?;
+        if reversals >= d.reversals {
+            return None;
+        }
+        let with = |id: &str, mu_s: f64| Condition {
+            id: id.into(),
+            model: with_mu_s(&d.reference, mu_s),
+        };
+        let (reference, comparison) = (with("reference", base), with("comparison", base + delta));
+        let seed = (self.seed ^ index as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        let (first, second) = if seed >> 63 == 0 {
+            (reference, comparison)
+        } else {
+            (comparison, reference)
+        };
+        Some(PlannedTrial {
+            index,
+            block: "staircase".into(),
+            block_index: 0,
+            practice: false,
+            repetition: 0,
+            seed,
+            spec: super::TrialSpec::Staircase(StaircaseTrial {
+                pair: PairedTrial {
+                    first,
+                    second,
+                    exploration_s: d.exploration_s,
+                },
+                delta_mu_s: delta,
+            }),
+        })
+    }
+
+    fn planned(&self) -> Option<usize> {
+        None
+    }
+
+    fn loop_rate_hz(&self) -> f64 {
+        self.design.reference.loop_rate_hz()
+    }
+}
+
+#[cfg(test)]
+#[allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    reason = "a failed unwrap is a failed test"
+)]
+mod tests {
+    use std::path::Path;
+    use std::process::Command;
+    use std::time::Duration;
+
+    use super::{StaircaseData, StaircaseTrial};
+    use crate::device::DeviceSample;
+    use crate::hand::HandDrive;
+    use crate::kinds::{TrialData, TrialSpec};
+    use crate::protocol::engine::{Action, Answer, Choice, Input, Question, Screen};
+    use crate::protocol::plan::PlannedTrial;
+    use crate::results::{ResultsDir, read_log};
+    use crate::session::{
+        DeviceChoice, Reaction, Responder, SessionRequest, plan as plan_session, run_planned,
+    };
+
+    /// The test observer's threshold: it picks the comparison when the
+    /// difference is at least this.
+    const THRESHOLD: f64 = 0.15;
+
+    /// The toy protocol: reference mu_s 0.6 on seed 001's tactile model (as
+    /// in `protocols/magnitude-quick.json`),
+    /// difference from 0.4 in steps of 0.1, 4 reversals.
+    const PROTOCOL: &str = r#"{
+        "id": "stairs", "title": "Toy staircase",
+        "design": {
+            "kind": "toy_staircase",
+            "reference": {"model": "stick-slip-tactile", "mass_kg": 0.00016,
+                "stiffness_n_m": 63.0, "damping_n_s_m": 0.001, "normal_load_n": 0.016,
+                "mu_s": 0.6, "mu_k": 0.3},
+            "start_delta": 0.4, "step": 0.1, "reversals": 4, "exploration_s": 3.0
+        }
+    }"#;
+
+    /// An observer that continues past every screen and, asked, picks the
+    /// comparison when the difference is at least [`THRESHOLD`].
+    struct Observer;
+
+    impl Responder for Observer {
+        const LABEL: &'static str = "sim";
+        fn hand_mass_kg(&self) -> f64 {
+            0.4
+        }
+        fn on_action(&mut self, _: f64, action: &Action, trial: Option<&PlannedTrial>) -> Reaction {
+            let inputs = match (action, trial.map(|t| &t.spec)) {
+                (Action::Show(Screen::Instructions(_)), _) => vec![Input::Continue],
+                (
+                    Action::Ask(Question::PairedChoice),
+                    Some(TrialSpec::Staircase(StaircaseTrial { pair, delta_mu_s })),
+                ) => {
+                    let picks_comparison = *delta_mu_s >= THRESHOLD - 1e-9;
+                    let comparison_first = pair.first.id == "comparison";
+                    let choice = if picks_comparison == comparison_first {
+                        Choice::First
+                    } else {
+                        Choice::Second
+                    };
+                    vec![Input::Answer(Answer::Paired(choice))]
+                }
+                _ => vec![],
+            };
+            Reaction {
+                inputs,
+                reset_to: None,
+            }
+        }
+        fn decide(&mut self, _: f64, _: &DeviceSample) -> Reaction {
+            Reaction::default()
+        }
+        fn drive(&self, _: f64, _: &DeviceSample) -> Option<HandDrive> {
+            None
+        }
+        fn hand_force(&mut self, _: f64, _: f64, _: &DeviceSample) -> f64 {
+            0.0
+        }
+    }
+
+    /// Runs (or resumes) the staircase session in `out`, paced.
+    fn run(out: &Path, resume: bool, pace: Option<f64>) {
+        let protocol = crate::protocol::load::parse(PROTOCOL).unwrap();
+        let dir = ResultsDir::new(out);
+        let req = SessionRequest {
+            protocol: &protocol,
+            protocol_bytes: PROTOCOL.as_bytes(),
+            participant: "p1",
+            participant_index: Some(0),
+            seed: 1,
+            resume,
+            pace,
+            device: &DeviceChoice::Simulated,
+            streams: false,
+        };
+        let planned = plan_session(&dir, &req, Observer::LABEL).unwrap();
+        run_planned(&dir, planned, pace, |_| Observer, &mut |_, _| {}).unwrap();
+    }
+
+    const CHILD_ENV: &str = "FRICTIONLAB_TOY_STAIRCASE_OUT";
+
+    /// The session process that `the_toy_kind_resumes_exactly_after_kill_9`
+    /// kills.
+    #[test]
+    #[ignore = "run as a child process by the_toy_kind_resumes_exactly_after_kill_9"]
+    fn toy_staircase_child() {
+        let out = std::env::var(CHILD_ENV).expect("run by the kill -9 test");
+        run(Path::new(&out), std::env::var("RESUME").is_ok(), Some(20.0));
+    }
+
+    fn log_path(out: &Path) -> std::path::PathBuf {
+        out.join("logs/study-stairs_subject-p1_session-1_log.jsonl")
+    }
+
+    fn csv(out: &Path) -> String {
+        std::fs::read_to_string(out.join("data/study-stairs_subject-p1_session-1_data.csv"))
+            .unwrap()
+    }
+
+    /// (difference, comparison chosen) per logged trial.
+    fn track(out: &Path) -> Vec<(f64, bool)> {
+        read_log(&log_path(out))
+            .unwrap()
+            .trials
+            .iter()
+            .map(|r| match &r.data {
+                TrialData::Staircase(StaircaseData { delta_mu_s, answer }) => {
+                    (*delta_mu_s, answer.chosen.as_deref() == Some("comparison"))
+                }
+                other => panic!("a staircase record, got {other:?}"),
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_toy_kind_runs_logs_and_stops_after_four_reversals() {
+        let dir = tempfile::tempdir().unwrap();
+        run(dir.path(), false, None);
+        // 0.4 c, 0.3 c, 0.2 c, 0.1 w (1), 0.2 c (2), 0.1 w (3), 0.2 c (4): stop.
+        let track = track(dir.path());
+        let deltas: Vec<f64> = track.iter().map(|t| (t.0 * 10.0).round() / 10.0).collect();
+        let picks: Vec<bool> = track.iter().map(|t| t.1).collect();
+        assert_eq!(deltas, [0.4, 0.3, 0.2, 0.1, 0.2, 0.1, 0.2]);
+        assert_eq!(picks, [true, true, true, false, true, false, true]);
+        let log = read_log(&log_path(dir.path())).unwrap();
+        assert!(log.ended);
+        assert_eq!(log.header.planned_trials, 0, "unknown in advance");
+        let csv = csv(dir.path());
+        let mut lines = csv.lines();
+        assert!(
+            lines
+                .next()
+                .unwrap()
+                .ends_with(",delta_mu_s,first,second,choice,chosen")
+        );
+        assert_eq!(lines.count(), 7);
+    }
+
+    #[test]
+    fn the_toy_kind_resumes_exactly_after_kill_9() {
+        let whole = tempfile::tempdir().unwrap();
+        run(whole.path(), false, None);
+        let dir = tempfile::tempdir().unwrap();
+        let child = |resume: bool| {
+            let mut c = Command::new(std::env::current_exe().unwrap());
+            c.args([
+                "--ignored",
+                "--exact",
+                "kinds::staircase::tests::toy_staircase_child",
+                "--test-threads",
+                "1",
+            ])
+            .env(CHILD_ENV, dir.path());
+            if resume {
+                c.env("RESUME", "1");
+            }
+            c
+        };
+        // Paced 20x: a trial (6 s of exploration) takes about 0.3 s. Killed
+        // after some trials are logged, then resumed until it ends.
+        let mut first = child(false).spawn().unwrap();
+        let start = std::time::Instant::now();
+        while read_log(&log_path(dir.path())).map_or(0, |l| l.trials.len()) < 3
+            && start.elapsed().as_secs() < 60
+        {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        std::thread::sleep(Duration::from_millis(120));
+        first.kill().unwrap(); // SIGKILL
+        first.wait().unwrap();
+        let logged = read_log(&log_path(dir.path())).unwrap();
+        assert!(!logged.ended && (3..7).contains(&logged.trials.len()));
+        let o = child(true).output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stdout));
+        assert_eq!(track(dir.path()), track(whole.path()));
+        assert_eq!(csv(dir.path()), csv(whole.path()), "byte-identical data");
+    }
+}
