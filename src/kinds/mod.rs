@@ -26,12 +26,6 @@
 //! or touches a file or port; the analysis entries are the exception, run
 //! only by `analysis::analyze`.
 
-pub mod fitts;
-pub mod magnitude;
-pub mod paired;
-#[cfg(test)]
-mod staircase;
-
 use std::collections::VecDeque;
 use std::fmt::Debug;
 use std::path::Path;
@@ -219,14 +213,21 @@ impl Exploration {
 }
 
 /// The registry: one line per kind, `Variant("name") => module::Type`
-/// (doc comment first, `#[cfg(...)]` allowed). `name` is the kind's tag in
+/// (doc comment first, `#[cfg(...)]` allowed), which also declares the
+/// kind's module (`src/kinds/<module>.rs`). `name` is the kind's tag in
 /// protocol files, logs and data files.
 macro_rules! kinds {
     ($(
         $(#[doc = $doc:literal])*
         $(#[cfg($cfg:meta)])?
-        $variant:ident($name:literal) => $kind:ty,
+        $variant:ident($name:literal) => $module:ident::$kind:ident,
     )*) => {
+        $(
+            $(#[doc = $doc])*
+            $(#[cfg($cfg)])?
+            pub mod $module;
+        )*
+
         /// The design of one of the kinds of study.
         #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
         #[serde(tag = "kind")]
@@ -235,7 +236,7 @@ macro_rules! kinds {
                 $(#[doc = $doc])*
                 $(#[cfg($cfg)])?
                 #[serde(rename = $name)]
-                $variant(<$kind as StudyKind>::Design),
+                $variant(<$module::$kind as StudyKind>::Design),
             )*
         }
 
@@ -258,7 +259,7 @@ macro_rules! kinds {
                 $(#[doc = $doc])*
                 $(#[cfg($cfg)])?
                 #[serde(rename = $name)]
-                $variant(<$kind as StudyKind>::Trial),
+                $variant(<$module::$kind as StudyKind>::Trial),
             )*
         }
 
@@ -270,7 +271,7 @@ macro_rules! kinds {
                 $(#[doc = $doc])*
                 $(#[cfg($cfg)])?
                 #[serde(rename = $name)]
-                $variant(<$kind as StudyKind>::Data),
+                $variant(<$module::$kind as StudyKind>::Data),
             )*
         }
 
@@ -279,7 +280,7 @@ macro_rules! kinds {
         pub(crate) enum LiveState {
             $(
                 $(#[cfg($cfg)])?
-                $variant(Box<<$kind as StudyKind>::Live>),
+                $variant(Box<<$module::$kind as StudyKind>::Live>),
             )*
         }
 
@@ -299,7 +300,7 @@ macro_rules! kinds {
             #[must_use]
             pub fn columns(self) -> &'static [&'static str] {
                 match self {
-                    $($(#[cfg($cfg)])? Kind::$variant => <$kind as StudyKind>::COLUMNS,)*
+                    $($(#[cfg($cfg)])? Kind::$variant => <$module::$kind as StudyKind>::COLUMNS,)*
                 }
             }
 
@@ -307,7 +308,7 @@ macro_rules! kinds {
             #[must_use]
             pub fn analysis(self) -> Option<AnalysisEntry> {
                 match self {
-                    $($(#[cfg($cfg)])? Kind::$variant => <$kind as StudyKind>::ANALYSIS,)*
+                    $($(#[cfg($cfg)])? Kind::$variant => <$module::$kind as StudyKind>::ANALYSIS,)*
                 }
             }
         }
@@ -328,7 +329,7 @@ macro_rules! kinds {
                 match kind {
                     $(
                         $(#[cfg($cfg)])?
-                        Some($name) => <$kind as StudyKind>::read(w, v, path).map(Design::$variant),
+                        Some($name) => <$module::$kind as StudyKind>::read(w, v, path).map(Design::$variant),
                     )*
                     _ => {
                         w.unknown_kind(path, kind);
@@ -340,7 +341,7 @@ macro_rules! kinds {
             /// Value checks, each problem at its JSON path.
             pub(crate) fn check(&self, c: &mut Checks) {
                 match self {
-                    $($(#[cfg($cfg)])? Design::$variant(d) => <$kind as StudyKind>::check(d, c),)*
+                    $($(#[cfg($cfg)])? Design::$variant(d) => <$module::$kind as StudyKind>::check(d, c),)*
                 }
             }
 
@@ -349,7 +350,7 @@ macro_rules! kinds {
                 match self {
                     $(
                         $(#[cfg($cfg)])?
-                        Design::$variant(d) => <$kind as StudyKind>::blocks(d)
+                        Design::$variant(d) => <$module::$kind as StudyKind>::blocks(d)
                             .into_iter()
                             .map(|b| b.map(TrialSpec::$variant))
                             .collect(),
@@ -361,7 +362,7 @@ macro_rules! kinds {
             #[must_use]
             pub fn reference(&self) -> Option<(&str, f64)> {
                 match self {
-                    $($(#[cfg($cfg)])? Design::$variant(d) => <$kind as StudyKind>::reference(d),)*
+                    $($(#[cfg($cfg)])? Design::$variant(d) => <$module::$kind as StudyKind>::reference(d),)*
                 }
             }
         }
@@ -374,7 +375,7 @@ macro_rules! kinds {
                 $(
                     $(#[cfg($cfg)])?
                     Design::$variant(d) => {
-                        <$kind as StudyKind>::source(protocol, d, seed, participant_index)
+                        <$module::$kind as StudyKind>::source(protocol, d, seed, participant_index)
                     }
                 )*
             }
@@ -393,7 +394,7 @@ macro_rules! kinds {
             #[must_use]
             pub fn loop_rate_hz(&self) -> f64 {
                 match self {
-                    $($(#[cfg($cfg)])? TrialSpec::$variant(t) => <$kind as StudyKind>::loop_rate_hz(t),)*
+                    $($(#[cfg($cfg)])? TrialSpec::$variant(t) => <$module::$kind as StudyKind>::loop_rate_hz(t),)*
                 }
             }
 
@@ -401,7 +402,7 @@ macro_rules! kinds {
             #[must_use]
             pub fn prompt(&self) -> Option<&str> {
                 match self {
-                    $($(#[cfg($cfg)])? TrialSpec::$variant(t) => <$kind as StudyKind>::prompt(t),)*
+                    $($(#[cfg($cfg)])? TrialSpec::$variant(t) => <$module::$kind as StudyKind>::prompt(t),)*
                 }
             }
 
@@ -410,7 +411,7 @@ macro_rules! kinds {
                 match self {
                     $(
                         $(#[cfg($cfg)])?
-                        TrialSpec::$variant(t) => TrialSpec::$variant(<$kind as StudyKind>::draw(t, rng)),
+                        TrialSpec::$variant(t) => TrialSpec::$variant(<$module::$kind as StudyKind>::draw(t, rng)),
                     )*
                 }
             }
@@ -429,7 +430,7 @@ macro_rules! kinds {
             #[must_use]
             pub fn row(&self) -> Vec<String> {
                 match self {
-                    $($(#[cfg($cfg)])? TrialData::$variant(d) => <$kind as StudyKind>::row(d),)*
+                    $($(#[cfg($cfg)])? TrialData::$variant(d) => <$module::$kind as StudyKind>::row(d),)*
                 }
             }
         }
@@ -441,7 +442,7 @@ macro_rules! kinds {
                     $(
                         $(#[cfg($cfg)])?
                         TrialSpec::$variant(t) => {
-                            LiveState::$variant(Box::new(<$kind as StudyKind>::start(t, now, out)))
+                            LiveState::$variant(Box::new(<$module::$kind as StudyKind>::start(t, now, out)))
                         }
                     )*
                 }
