@@ -23,8 +23,9 @@
 //! module and one registry line.
 //!
 //! Like the engine, nothing here reads a clock, draws unseeded randomness,
-//! or touches a file or port; the analysis entries are the exception, run
-//! only by `analysis::analyze`.
+//! or touches a file or port. The one exception is an analysis entry, run
+//! only by `analysis::analyze`: magnitude estimation's reads the folder's
+//! log headers for the protocol's display order.
 
 use std::collections::VecDeque;
 use std::fmt::Debug;
