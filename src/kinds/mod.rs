@@ -383,14 +383,6 @@ macro_rules! kinds {
         }
 
         impl TrialSpec {
-            /// The kind of trial.
-            #[must_use]
-            pub fn kind(&self) -> Kind {
-                match self {
-                    $($(#[cfg($cfg)])? TrialSpec::$variant(_) => Kind::$variant,)*
-                }
-            }
-
             /// The haptic loop rate its models need, Hz.
             #[must_use]
             pub fn loop_rate_hz(&self) -> f64 {
@@ -419,14 +411,6 @@ macro_rules! kinds {
         }
 
         impl TrialData {
-            /// The kind of data.
-            #[must_use]
-            pub fn kind(&self) -> Kind {
-                match self {
-                    $($(#[cfg($cfg)])? TrialData::$variant(_) => Kind::$variant,)*
-                }
-            }
-
             /// The data-CSV cells, one per column of its kind.
             #[must_use]
             pub fn row(&self) -> Vec<String> {
