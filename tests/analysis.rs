@@ -261,12 +261,12 @@ fn fitts_statistics_match_hand_computation() {
         &rows,
     );
     let f = &analyze(dir.path()).unwrap().summary["fitts"];
-    // Quadrants (time change, error change) against own baseline:
+    // Error-count quadrants (time change, error change) against own baseline:
     // ID 2: P1 (+0.3, +1) slower/less accurate; P2 (-0.1, 0) tie.
     // ID 3: P1 (+0.6, +1) slower/less; P2 (-0.1, +1) faster/less.
     // Pooled: P1 (+0.45, +1); P2 (-0.1, +0.5).
     let q = |id: Value| {
-        f["quadrants"]
+        f["quadrants_error_count"]
             .as_array()
             .unwrap()
             .iter()
@@ -317,6 +317,126 @@ fn fitts_statistics_match_hand_computation() {
         &[-0.008, 0.008, -0.008, 0.008],
     );
     assert!(close(direct.unwrap(), 8.085_122_305_839_352));
+}
+
+/// One click: (time s, x m, lit target m, hit).
+type Click = (f64, f64, f64, bool);
+
+/// A Fitts row with every click logged.
+fn clicks_row(
+    p: &str,
+    cond: &str,
+    completion: f64,
+    clicks: &[Click],
+) -> Vec<(&'static str, String)> {
+    let join = |f: &dyn Fn(&Click) -> String| clicks.iter().map(f).collect::<Vec<_>>().join(";");
+    let errors = clicks.iter().filter(|c| !c.3).count();
+    let mut row = fitts_row(p, cond, 2.0, completion, u32::try_from(errors).unwrap());
+    row.extend([
+        ("click_times_s", join(&|c| c.0.to_string())),
+        ("click_x_m", join(&|c| c.1.to_string())),
+        ("click_target_x_m", join(&|c| c.2.to_string())),
+        ("click_hit", join(&|c| c.3.to_string())),
+    ]);
+    row
+}
+
+#[test]
+fn fitts_accuracy_and_throughput_use_every_click_and_aborted_tests_are_counted() {
+    let dir = tempfile::tempdir().unwrap();
+    // Targets at -0.05 and +0.05 m. Sequence A misses once (overshoot) and
+    // corrects; sequence B hits 2 mm short each time.
+    let a = [
+        (0.0, -0.051, -0.05, true),
+        (1.0, 0.062, 0.05, false),
+        (1.4, 0.049, 0.05, true),
+        (2.4, -0.047, -0.05, true),
+        (3.5, 0.053, 0.05, true),
+    ];
+    let b = [
+        (0.0, -0.052, -0.05, true),
+        (1.0, 0.048, 0.05, true),
+        (2.0, -0.052, -0.05, true),
+        (3.0, 0.048, 0.05, true),
+    ];
+    let exact = [
+        (0.0, -0.05, -0.05, true),
+        (1.0, 0.05, 0.05, true),
+        (2.0, -0.05, -0.05, true),
+        (3.0, 0.05, 0.05, true),
+    ];
+    let off_by_1mm = [
+        (0.0, -0.049, -0.05, true),
+        (1.0, 0.051, 0.05, true),
+        (2.0, -0.049, -0.05, true),
+        (3.0, 0.051, 0.05, true),
+    ];
+    let mut aborted = clicks_row("P2", "stiction", 60.0, &b[..2]);
+    aborted.push(("status", "aborted".into()));
+    let rows = vec![
+        clicks_row("P1", "baseline", 3.5, &a),
+        clicks_row("P1", "baseline", 3.0, &b),
+        clicks_row("P2", "baseline", 3.0, &b),
+        clicks_row("P1", "stiction", 3.0, &exact),
+        clicks_row("P2", "stiction", 4.0, &off_by_1mm),
+        aborted,
+    ];
+    data(
+        dir.path(),
+        "study-fixture_subject-P_session-1",
+        Kind::Fitts,
+        &rows,
+    );
+    let analysis = analyze(dir.path()).unwrap();
+    let f = &analysis.summary["fitts"];
+    // Throughput of A: deviations 0.012, -0.001, -0.003, 0.003 (squared
+    // residuals 1.3275e-4 over 3), amplitudes 0.113, 0.013, 0.096, 0.100,
+    // MT 3.5/4. Of B: deviations -0.002, 0.002, -0.002 (squared residuals
+    // 1.0666...e-5 over 2), amplitudes 0.1 each, MT 1.
+    let tp_a = (0.0805 / (4.133 * (1.3275e-4_f64 / 3.0).sqrt()) + 1.0).log2() / 0.875;
+    let tp_b = (0.1 / (4.133 * (3.2e-5_f64 / 3.0 / 2.0).sqrt()) + 1.0).log2();
+    // The mean of each participant's sequences, then of participants.
+    assert_close(
+        &f["throughput_bits_per_s"]["baseline"],
+        f64::midpoint(f64::midpoint(tp_a, tp_b), tp_b),
+        "throughput",
+    );
+    let pooled = |key: &str| {
+        let q = f[key]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|q| q["condition"] == "stiction" && q["id_bits"].is_null())
+            .unwrap()
+            .clone();
+        [
+            "slower_less_accurate",
+            "faster_less_accurate",
+            "faster_more_accurate",
+            "slower_more_accurate",
+            "ties",
+        ]
+        .map(|k| q[k].as_u64().unwrap())
+    };
+    // Error magnitude over every click: P1 baseline (0.004 + 0.002) / 2,
+    // stiction 0: faster, more accurate. P2 baseline 0.002, stiction 0.001,
+    // 1 s slower: slower, more accurate.
+    assert_eq!(pooled("quadrants"), [0, 0, 1, 1, 0]);
+    // Error counts: P1 0.5 -> 0, faster; P2 0 -> 0: a tie.
+    assert_eq!(pooled("quadrants_error_count"), [0, 0, 1, 0, 1]);
+    assert_eq!(f["tests"], 5, "the aborted test is not analysed");
+    let notes: Vec<&str> = analysis.summary["notes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(Value::as_str)
+        .collect();
+    assert!(
+        notes.contains(
+            &"fitts: tests aborted or timed out, not analysed: 1 (stiction at ID 2.000 bits: 1)"
+        ),
+        "{notes:?}"
+    );
 }
 
 fn frictionlab(args: &[&str]) -> Output {

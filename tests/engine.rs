@@ -104,7 +104,7 @@ fn the_next_trial_waits_until_the_record_is_on_disk() {
 }
 
 #[test]
-fn fitts_counts_hits_inside_the_lit_target_and_logs_misses() {
+fn fitts_counts_hits_inside_the_lit_target_and_logs_every_click() {
     let mut e = engine("fitts-quick");
     e.handle(0.0, Input::Start);
     e.handle(0.0, Input::Continue);
@@ -130,12 +130,27 @@ fn fitts_counts_hits_inside_the_lit_target_and_logs_misses() {
         tap_x_m,
         target_x_m,
         miss_x_m,
+        click_times_s,
+        click_x_m,
+        click_target_x_m,
+        click_hit,
         ..
     }) = &r.data
     else {
         panic!()
     };
     assert_eq!((*taps, *errors), (4, 2));
+    // Every click, in order, with the lit target's centre and whether it hit.
+    assert_eq!(click_times_s, &[1.0, 1.5, 1.6, 1.9, 2.4, 3.0]);
+    assert_eq!(
+        click_x_m,
+        &[-0.0085, -0.006, 0.0065, 0.0075, -0.0079, 0.0081]
+    );
+    assert_eq!(
+        click_target_x_m,
+        &[-0.008, 0.008, 0.008, 0.008, -0.008, 0.008]
+    );
+    assert_eq!(click_hit, &[true, false, false, true, true, true]);
     assert!(
         (completion_time_s.unwrap() - 2.0).abs() < 1e-12,
         "first to last hit"
@@ -241,4 +256,18 @@ fn the_engine_says_when_to_wake_it_and_ignores_early_timeouts() {
     assert_eq!(e.poll_timeout(), None, "the question waits without a timer");
     e.handle_timeout(10.0);
     assert!(drain(&mut e).is_empty(), "an expired exploration asks once");
+}
+
+#[test]
+fn a_fitts_record_logged_before_clicks_were_logged_still_reads() {
+    let old = r#"{"kind":"fitts","condition":"baseline","amplitude_m":0.016,
+        "width_m":0.003,"cursor_m":0.001,"effective_width_m":0.002,"id_bits":4.17,
+        "completion_time_s":1.2,"taps":4,"errors":0,"mean_error_m":null,
+        "tap_times_s":[0.0,0.4,0.8,1.2],"tap_x_m":[-0.008,0.008,-0.008,0.008],
+        "target_x_m":[-0.008,0.008,-0.008,0.008],"miss_x_m":[]}"#;
+    let TrialData::Fitts(d) = serde_json::from_str::<TrialData>(old).unwrap() else {
+        panic!("a Fitts record")
+    };
+    assert_eq!(d.taps, 4);
+    assert!(d.click_times_s.is_empty() && d.click_hit.is_empty());
 }

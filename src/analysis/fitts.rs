@@ -2,18 +2,27 @@
 //! quadrant counts against each participant's own baseline, movement time
 //! regressed on ID, and ISO 9241-9 effective throughput.
 //!
+//! Tests that did not complete (aborted, timed out) are left out of every
+//! statistic and counted per condition and ID in `notes`.
+//!
 //! Definitions:
 //! - Per test: completion time (first to last hit), errors (misses), mean
 //!   error size; movement time per movement `MT = completion / (taps - 1)`.
 //! - Quadrants: for each condition other than `baseline`, and each ID (and
 //!   all IDs pooled, `id_bits` null), each participant's change in mean
-//!   completion time and in mean errors against the same participant's
-//!   `baseline` at the same ID. Participants fall in the seed's four
-//!   quadrants, or `ties` when either change is exactly zero.
+//!   completion time and in mean error magnitude (over every click: the
+//!   distance from the lit target's centre along the axis, seed 002's
+//!   accuracy axis) against the same participant's `baseline` at the same
+//!   ID. Participants fall in the seed's four quadrants, or `ties` when
+//!   either change is exactly zero (neither faster nor slower, or neither
+//!   more nor less accurate). `quadrants_error_count` does the same with
+//!   the number of errors as the accuracy axis.
 //! - Regression: OLS of MT on ID over every test of the condition.
-//! - Throughput: each test's ISO 9241-9 effective throughput
-//!   ([`super::stats::effective_throughput`]), averaged per condition (the
-//!   mean of per-sequence values).
+//! - Throughput: each test's ISO 9241-9 effective throughput from every
+//!   click, hits and misses ([`super::stats::effective_throughput`]; from
+//!   the hits alone for data files written before clicks were logged),
+//!   averaged per condition: the mean of each participant's sequences,
+//!   then the mean of participants.
 
 use std::collections::BTreeMap;
 
@@ -40,6 +49,10 @@ pub struct Test {
     pub errors: f64,
     /// Mean miss size, m.
     pub mean_error_m: Option<f64>,
+    /// Mean error magnitude over every click: the distance of each click
+    /// from the lit target's centre along the axis, m (over the hits only
+    /// in data files written before clicks were logged).
+    pub error_magnitude_m: Option<f64>,
     /// Effective throughput, bits/s.
     pub throughput: Option<f64>,
 }
@@ -54,7 +67,7 @@ pub struct Quadrant {
     /// Counts: slower & less accurate, faster & less accurate, faster & more
     /// accurate, slower & more accurate, ties.
     pub counts: [u32; 5],
-    /// Each participant's (time change s, error change).
+    /// Each participant's (time change s, accuracy change).
     pub points: Vec<(f64, f64)>,
 }
 
@@ -76,9 +89,22 @@ pub struct Fitts {
 fn tests(rows: &Rows) -> Result<Vec<Test>, Problem> {
     (0..rows.len())
         .map(|i| {
-            let times = rows.list("tap_times_s", i)?;
-            let x = rows.list("tap_x_m", i)?;
-            let targets = rows.list("target_x_m", i)?;
+            // Every click when logged; hits only in data files written
+            // before clicks were logged.
+            let clicks = rows.list("click_times_s", i)?;
+            let (times, x, targets) = if clicks.is_empty() {
+                (
+                    rows.list("tap_times_s", i)?,
+                    rows.list("tap_x_m", i)?,
+                    rows.list("target_x_m", i)?,
+                )
+            } else {
+                (
+                    clicks,
+                    rows.list("click_x_m", i)?,
+                    rows.list("click_target_x_m", i)?,
+                )
+            };
             Ok(Test {
                 participant: rows.text("participant", i).to_owned(),
                 condition: rows.text("condition", i).to_owned(),
@@ -87,6 +113,12 @@ fn tests(rows: &Rows) -> Result<Vec<Test>, Problem> {
                 taps: rows.number("taps", i)?,
                 errors: rows.number("errors", i)?,
                 mean_error_m: rows.optional("mean_error_m", i)?,
+                error_magnitude_m: mean(
+                    &x.iter()
+                        .zip(&targets)
+                        .map(|(x, c)| (x - c).abs())
+                        .collect::<Vec<_>>(),
+                ),
                 throughput: effective_throughput(&times, &x, &targets),
             })
         })
@@ -136,6 +168,11 @@ fn means_rows(tests: &[Test]) -> Vec<Vec<Cell>> {
                     &ts.iter().filter_map(|t| t.throughput).collect::<Vec<_>>(),
                 )),
                 num(ts.len() as f64),
+                opt(mean(
+                    &ts.iter()
+                        .filter_map(|t| t.error_magnitude_m)
+                        .collect::<Vec<_>>(),
+                )),
             ]
         })
         .collect()
@@ -147,6 +184,7 @@ fn quadrants(
     conditions: &[String],
     ids: &[f64],
     participants: &[String],
+    accuracy: fn(&Test) -> Option<f64>,
 ) -> Vec<Quadrant> {
     let per = |p: &str, c: &str, id: Option<f64>| -> Option<(f64, f64)> {
         let ts: Vec<&Test> = tests
@@ -155,7 +193,7 @@ fn quadrants(
             .collect();
         Some((
             mean(&ts.iter().map(|t| t.completion_s).collect::<Vec<_>>())?,
-            mean(&ts.iter().map(|t| t.errors).collect::<Vec<_>>())?,
+            mean(&ts.iter().filter_map(|t| accuracy(t)).collect::<Vec<_>>())?,
         ))
     };
     let mut out = Vec::new();
@@ -236,11 +274,17 @@ fn regressions(
             "condition": c, "intercept_s": fit.map(|f| f.intercept), "slope_s_per_bit": fit.map(|f| f.slope),
             "r2": fit.map(|f| f.r2), "n": pts.len(),
         }));
+        // The mean of each participant's sequences, then of participants.
+        let mut by_participant: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
+        for t in tests.iter().filter(|t| &t.condition == c) {
+            if let Some(tp) = t.throughput {
+                by_participant.entry(&t.participant).or_default().push(tp);
+            }
+        }
         let tp = mean(
-            &tests
-                .iter()
-                .filter(|t| &t.condition == c)
-                .filter_map(|t| t.throughput)
+            &by_participant
+                .values()
+                .filter_map(|v| mean(v))
                 .collect::<Vec<_>>(),
         );
         throughput.insert(c.clone(), json!(tp));
@@ -262,39 +306,33 @@ fn regressions(
     }
 }
 
-/// Analyses the Fitts rows.
-///
-/// # Errors
-/// A value that is not a number.
-pub fn analyze(rows: &Rows) -> Result<Fitts, Problem> {
-    let tests = tests(rows)?;
-    let mut notes = Vec::new();
-    let mut conditions = sorted_unique(tests.iter().map(|t| t.condition.clone()).collect());
-    if let Some(i) = conditions.iter().position(|c| c == "baseline") {
-        let b = conditions.remove(i);
-        conditions.insert(0, b);
+/// The tests left out because they did not complete, counted per
+/// condition and ID.
+fn aborted_note(aborted: &Rows) -> Result<Option<String>, Problem> {
+    let mut cells: BTreeMap<(String, u64), usize> = BTreeMap::new();
+    for i in 0..aborted.len() {
+        let id = aborted.number("id_bits", i)?;
+        *cells
+            .entry((aborted.text("condition", i).to_owned(), key(id)))
+            .or_default() += 1;
     }
-    let ids = sorted_unique(tests.iter().map(|t| t.id_bits).collect());
-    let participants = sorted_unique(tests.iter().map(|t| t.participant.clone()).collect());
-    let quadrants = if conditions.first().map(String::as_str) == Some("baseline") {
-        quadrants(&tests, &conditions, &ids, &participants)
-    } else {
-        if !tests.is_empty() {
-            notes.push(
-                "fitts.quadrants: n/a: no 'baseline' condition to compare against".to_owned(),
-            );
-        }
-        Vec::new()
-    };
+    if cells.is_empty() {
+        return Ok(None);
+    }
+    let list: Vec<String> = cells
+        .iter()
+        .map(|((c, id), n)| format!("{c} at ID {:.3} bits: {n}", f64::from_bits(*id)))
+        .collect();
+    Ok(Some(format!(
+        "fitts: tests aborted or timed out, not analysed: {} ({})",
+        aborted.len(),
+        list.join("; ")
+    )))
+}
 
-    let Regressions {
-        regression,
-        mt_by_id,
-        throughput,
-        rows: reg_rows,
-    } = regressions(&tests, &conditions, &ids, &mut notes);
-
-    let quad_json: Vec<Value> = quadrants
+/// The quadrant counts as `summary.json` lists them.
+fn quadrant_json(quadrants: &[Quadrant]) -> Vec<Value> {
+    quadrants
         .iter()
         .map(|q| {
             json!({
@@ -303,22 +341,79 @@ pub fn analyze(rows: &Rows) -> Result<Fitts, Problem> {
                 "faster_more_accurate": q.counts[2], "slower_more_accurate": q.counts[3], "ties": q.counts[4],
             })
         })
-        .collect();
+        .collect()
+}
+
+/// The quadrant counts as a table.
+fn quadrant_table(name: &str, quadrants: &[Quadrant]) -> Table {
+    Table {
+        name: name.into(),
+        columns: columns(&[
+            "condition",
+            "id_bits",
+            "slower_less_accurate",
+            "faster_less_accurate",
+            "faster_more_accurate",
+            "slower_more_accurate",
+            "ties",
+        ]),
+        rows: quadrants
+            .iter()
+            .map(|q| {
+                let mut r = vec![text(q.condition.clone()), opt(q.id_bits)];
+                r.extend(q.counts.iter().map(|&n| num(f64::from(n))));
+                r
+            })
+            .collect(),
+    }
+}
+
+/// Analyses the Fitts rows.
+///
+/// # Errors
+/// A value that is not a number.
+pub fn analyze(rows: &Rows) -> Result<Fitts, Problem> {
+    let tests = tests(rows)?;
+    let mut notes = Vec::new();
+    if let Some(note) = aborted_note(&rows.aborted())? {
+        notes.push(note);
+    }
+    let mut conditions = sorted_unique(tests.iter().map(|t| t.condition.clone()).collect());
+    if let Some(i) = conditions.iter().position(|c| c == "baseline") {
+        let b = conditions.remove(i);
+        conditions.insert(0, b);
+    }
+    let ids = sorted_unique(tests.iter().map(|t| t.id_bits).collect());
+    let participants = sorted_unique(tests.iter().map(|t| t.participant.clone()).collect());
+    let has_baseline = conditions.first().map(String::as_str) == Some("baseline");
+    let quadrants_on = |accuracy: fn(&Test) -> Option<f64>| {
+        if has_baseline {
+            quadrants(&tests, &conditions, &ids, &participants, accuracy)
+        } else {
+            Vec::new()
+        }
+    };
+    let quadrants = quadrants_on(|t| t.error_magnitude_m);
+    let by_count = quadrants_on(|t| Some(t.errors));
+    if !has_baseline && !tests.is_empty() {
+        notes.push("fitts.quadrants: n/a: no 'baseline' condition to compare against".to_owned());
+    }
+
+    let Regressions {
+        regression,
+        mt_by_id,
+        throughput,
+        rows: reg_rows,
+    } = regressions(&tests, &conditions, &ids, &mut notes);
+
     let summary = json!({
-        "quadrants": quad_json,
+        "quadrants": quadrant_json(&quadrants),
+        "quadrants_error_count": quadrant_json(&by_count),
         "regression": regression,
         "throughput_bits_per_s": throughput,
         "participants": participants.len(),
         "tests": tests.len(),
     });
-    let quadrant_rows = quadrants
-        .iter()
-        .map(|q| {
-            let mut r = vec![text(q.condition.clone()), opt(q.id_bits)];
-            r.extend(q.counts.iter().map(|&n| num(f64::from(n))));
-            r
-        })
-        .collect();
     let tables = vec![
         Table {
             name: "fitts_means".into(),
@@ -331,22 +426,12 @@ pub fn analyze(rows: &Rows) -> Result<Fitts, Problem> {
                 "mean_error_m",
                 "throughput_bits_per_s",
                 "n",
+                "error_magnitude_m",
             ]),
             rows: means_rows(&tests),
         },
-        Table {
-            name: "fitts_quadrants".into(),
-            columns: columns(&[
-                "condition",
-                "id_bits",
-                "slower_less_accurate",
-                "faster_less_accurate",
-                "faster_more_accurate",
-                "slower_more_accurate",
-                "ties",
-            ]),
-            rows: quadrant_rows,
-        },
+        quadrant_table("fitts_quadrants", &quadrants),
+        quadrant_table("fitts_quadrants_error_count", &by_count),
         Table {
             name: "fitts_regression".into(),
             columns: columns(&[

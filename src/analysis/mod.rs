@@ -169,6 +169,8 @@ pub struct Analysis {
 #[derive(Debug, Clone, Default)]
 pub struct Rows {
     frame: DataFrame,
+    /// The non-practice rows that did not complete (aborted, timed out).
+    aborted: DataFrame,
     files: Vec<PathBuf>,
 }
 
@@ -183,6 +185,17 @@ impl Rows {
     #[must_use]
     pub fn is_empty(&self) -> bool {
         self.frame.height() == 0
+    }
+
+    /// The rows of the same files that did not complete (aborted, timed
+    /// out), which the analysis leaves out and counts.
+    #[must_use]
+    pub fn aborted(&self) -> Rows {
+        Rows {
+            frame: self.aborted.clone(),
+            aborted: DataFrame::empty(),
+            files: self.files.clone(),
+        }
     }
 
     fn column(&self, column: &str) -> Option<&StringChunked> {
@@ -371,6 +384,10 @@ fn needed(kind: Kind, entry: &AnalysisEntry) -> Vec<&'static str> {
     c
 }
 
+/// A kind's data files: its entry, the files, and the optional columns all
+/// of them have.
+type Group = (Kind, AnalysisEntry, Vec<PathBuf>, Vec<&'static str>);
+
 /// Reads every data CSV of the folder, grouped by kind: completed,
 /// non-practice rows only.
 ///
@@ -389,7 +406,9 @@ pub fn load(dir: &Path) -> Result<BTreeMap<&'static str, Rows>, Problem> {
         .iter()
         .filter_map(|&k| k.analysis().map(|a| (k, a)))
         .collect();
-    let mut by_kind: BTreeMap<&'static str, (Kind, AnalysisEntry, Vec<PathBuf>)> = BTreeMap::new();
+    // Per kind: its entry, its files, and the optional columns every one of
+    // them has (read; else left out for all).
+    let mut by_kind: BTreeMap<&'static str, Group> = BTreeMap::new();
     for file in &files {
         let name = file.display().to_string();
         let header = std::fs::read_to_string(file)
@@ -417,21 +436,23 @@ pub fn load(dir: &Path) -> Result<BTreeMap<&'static str, Rows>, Problem> {
                 ));
             }
         }
-        by_kind
+        let group = by_kind
             .entry(kind.as_str())
-            .or_insert((kind, entry, Vec::new()))
-            .2
-            .push(file.clone());
+            .or_insert_with(|| (kind, entry, Vec::new(), entry.optional.to_vec()));
+        group.2.push(file.clone());
+        group.3.retain(|c| has(c));
     }
     let mut out = BTreeMap::new();
-    for (name, (kind, entry, paths)) in by_kind {
-        out.insert(name, scan(&paths, &needed(kind, &entry))?);
+    for (name, (kind, entry, paths, optional)) in by_kind {
+        let mut columns = needed(kind, &entry);
+        columns.extend(optional);
+        out.insert(name, scan(&paths, &columns)?);
     }
     Ok(out)
 }
 
-/// Lazily scans `paths` (all columns as text), keeps completed non-practice
-/// rows and the `columns` asked for.
+/// Lazily scans `paths` (all columns as text), keeps the non-practice rows
+/// and the `columns` asked for, completed ones apart from the others.
 fn scan(paths: &[PathBuf], columns: &[&str]) -> Result<Rows, Problem> {
     let place = paths
         .first()
@@ -442,20 +463,25 @@ fn scan(paths: &[PathBuf], columns: &[&str]) -> Result<Rows, Problem> {
         .iter()
         .map(|p| PlRefPath::from(p.to_string_lossy().as_ref()))
         .collect();
-    let frame = LazyCsvReader::new_paths(sources.into())
+    let rows = LazyCsvReader::new_paths(sources.into())
         .with_infer_schema_length(Some(0))
         .finish()
         .map_err(fail)?
-        .filter(
-            col("status")
-                .eq(lit("completed"))
-                .and(col("practice").eq(lit("false"))),
-        )
+        .filter(col("practice").eq(lit("false")))
         .select(columns.iter().map(|c| col(*c)).collect::<Vec<_>>())
         .collect()
         .map_err(fail)?;
+    let completed = |yes: bool| {
+        let status = col("status").eq(lit("completed"));
+        rows.clone()
+            .lazy()
+            .filter(if yes { status } else { status.not() })
+            .collect()
+            .map_err(fail)
+    };
     Ok(Rows {
-        frame,
+        frame: completed(true)?,
+        aborted: completed(false)?,
         files: paths.to_vec(),
     })
 }

@@ -152,7 +152,7 @@ fn quadrant_chart(
         let _ = chart
             .configure_mesh()
             .x_desc("change in completion time vs baseline (s)")
-            .y_desc("change in errors vs baseline")
+            .y_desc("change in mean error magnitude vs baseline (m)")
             .light_line_style(WHITE)
             .draw();
         let _ = chart.draw_series(LineSeries::new(

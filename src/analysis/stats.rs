@@ -142,11 +142,15 @@ pub fn binomial_two_sided(k: u64, n: u64) -> Option<f64> {
     Some((2.0 * d.cdf(k.min(n - k))).min(1.0))
 }
 
-/// ISO 9241-9 effective throughput of one sequence of taps, bits/s.
+/// ISO 9241-9 effective throughput of one sequence of selections (every
+/// click, hits and misses, in order), bits/s, as GoFitts computes it.
 ///
-/// Movement i runs from tap i-1 to tap i (i >= 1). With `a_i = |x_i - x_{i-1}|`
-/// and the endpoint deviation along the movement
-/// `dx_i = (x_i - target_i) sgn(target_i - target_{i-1})`:
+/// Every selection ends a movement, so movement i runs from selection i-1
+/// to selection i (i >= 1); a corrective click after a miss is a short
+/// movement to the same target. Targets are centred at `-A/2` and `+A/2`,
+/// so a movement to the target at `c_i` runs in direction `sgn(c_i)`. With
+/// `a_i = |x_i - x_{i-1}|` and the signed endpoint deviation along the
+/// movement `dx_i = (x_i - c_i) sgn(c_i)` (positive: overshoot):
 /// `We = 4.133 SD(dx)`, `Ae = mean(a_i)`, `IDe = log2(Ae / We + 1)`,
 /// `MT = (t_last - t_first) / movements`, `TP = IDe / MT`.
 /// `None` with fewer than 2 movements, no endpoint spread, or no time.
@@ -160,8 +164,7 @@ pub fn effective_throughput(times: &[f64], x: &[f64], targets: &[f64]) -> Option
     let mut deviations = Vec::with_capacity(n - 1);
     for i in 1..n {
         amplitudes.push((x[i] - x[i - 1]).abs());
-        let dir = (targets[i] - targets[i - 1]).signum();
-        deviations.push((x[i] - targets[i]) * dir);
+        deviations.push((x[i] - targets[i]) * targets[i].signum());
     }
     let we = 4.133 * sample_sd(&deviations)?;
     let ae = mean(&amplitudes)?;
@@ -181,5 +184,28 @@ mod tests {
         assert!((binomial_two_sided(5, 6).unwrap() - 14.0 / 64.0).abs() < 1e-12);
         assert_eq!(binomial_two_sided(3, 6), Some(1.0));
         assert_eq!(binomial_two_sided(0, 0), None);
+    }
+
+    #[test]
+    fn throughput_with_misses_matches_a_hand_computation() {
+        // Targets at -0.05 and +0.05 m; click 2 misses (overshoot), click 3
+        // corrects on the same target.
+        let times = [0.0, 1.0, 1.4, 2.4, 3.5];
+        let x = [-0.051, 0.062, 0.049, -0.047, 0.053];
+        let targets = [-0.05, 0.05, 0.05, -0.05, 0.05];
+        // Signed deviations 0.012, -0.001, -0.003, 0.003: mean 0.00275,
+        // squared residuals sum 1.3275e-4 over 3 degrees of freedom.
+        let we = 4.133 * (1.3275e-4_f64 / 3.0).sqrt();
+        // Amplitudes 0.113, 0.013, 0.096, 0.100.
+        let ae = 0.322 / 4.0;
+        let mt = 3.5 / 4.0;
+        let expected = (ae / we + 1.0).log2() / mt;
+        let tp = effective_throughput(&times, &x, &targets).unwrap();
+        assert!((tp - expected).abs() < 1e-9, "{tp} vs {expected}");
+        // Hits only (the misses left out) overstates it: a narrower spread.
+        let hits = [0, 2, 3, 4];
+        let pick = |v: &[f64]| hits.iter().map(|&i| v[i]).collect::<Vec<_>>();
+        let hits_only = effective_throughput(&pick(&times), &pick(&x), &pick(&targets)).unwrap();
+        assert!(hits_only > tp, "{hits_only} vs {tp}");
     }
 }

@@ -194,6 +194,19 @@ pub struct FittsData {
     pub target_x_m: Vec<f64>,
     /// Cursor position of each miss, m.
     pub miss_x_m: Vec<f64>,
+    /// Session time of every click, hits and misses in order, s (empty in
+    /// logs written before these fields existed).
+    #[serde(default)]
+    pub click_times_s: Vec<f64>,
+    /// Cursor position of every click, m.
+    #[serde(default)]
+    pub click_x_m: Vec<f64>,
+    /// Centre of the lit target at every click, m.
+    #[serde(default)]
+    pub click_target_x_m: Vec<f64>,
+    /// Whether each click hit.
+    #[serde(default)]
+    pub click_hit: Vec<bool>,
 }
 
 impl StudyKind for Fitts {
@@ -217,11 +230,24 @@ impl StudyKind for Fitts {
         "tap_x_m",
         "target_x_m",
         "miss_x_m",
+        "click_times_s",
+        "click_x_m",
+        "click_target_x_m",
+        "click_hit",
     ];
 
     const ANALYSIS: Option<AnalysisEntry> = Some(AnalysisEntry {
         marker: "id_bits",
-        unread: &["cursor_m", "effective_width_m", "miss_x_m"],
+        unread: &[
+            "cursor_m",
+            "effective_width_m",
+            "miss_x_m",
+            "click_times_s",
+            "click_x_m",
+            "click_target_x_m",
+            "click_hit",
+        ],
+        optional: &["click_times_s", "click_x_m", "click_target_x_m", "click_hit"],
         run: |rows, _| {
             let f = crate::analysis::fitts::analyze(rows)?;
             Ok(Section {
@@ -424,6 +450,14 @@ impl StudyKind for Fitts {
             list(&d.tap_x_m),
             list(&d.target_x_m),
             list(&d.miss_x_m),
+            list(&d.click_times_s),
+            list(&d.click_x_m),
+            list(&d.click_target_x_m),
+            d.click_hit
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>()
+                .join(";"),
         ]
     }
 }
@@ -440,6 +474,16 @@ pub struct Tapping {
     target_x: Vec<f64>,
     miss_x: Vec<f64>,
     miss_size: Vec<f64>,
+    clicks: Clicks,
+}
+
+/// Every click of a test, in order.
+#[derive(Debug, Clone, Default)]
+struct Clicks {
+    times: Vec<f64>,
+    x: Vec<f64>,
+    target: Vec<f64>,
+    hit: Vec<bool>,
 }
 
 impl Tapping {
@@ -457,6 +501,7 @@ impl Tapping {
             target_x: Vec::new(),
             miss_x: Vec::new(),
             miss_size: Vec::new(),
+            clicks: Clicks::default(),
         };
         out.push_back(Action::Physical(trial.physical.clone()));
         out.push_back(Action::Render(Some(trial.model.clone())));
@@ -480,6 +525,10 @@ impl Tapping {
         let centre = self.centres[self.lit];
         let distance = (x - centre).abs();
         let hit = distance <= half;
+        self.clicks.times.push(now);
+        self.clicks.x.push(x);
+        self.clicks.target.push(centre);
+        self.clicks.hit.push(hit);
         if hit {
             self.tap_times.push(now);
             self.tap_x.push(x);
@@ -536,6 +585,10 @@ impl LiveTrial for Tapping {
             tap_x_m: self.tap_x.clone(),
             target_x_m: self.target_x.clone(),
             miss_x_m: self.miss_x.clone(),
+            click_times_s: self.clicks.times.clone(),
+            click_x_m: self.clicks.x.clone(),
+            click_target_x_m: self.clicks.target.clone(),
+            click_hit: self.clicks.hit.clone(),
         }
     }
 }

@@ -156,6 +156,7 @@ impl StudyKind for Magnitude {
     const ANALYSIS: Option<AnalysisEntry> = Some(AnalysisEntry {
         marker: "display",
         unread: &["response_time_s"],
+        optional: &[],
         run: |rows, folder| {
             let m = crate::analysis::magnitude::analyze(rows, &display_order(folder))?;
             Ok(Section {

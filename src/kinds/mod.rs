@@ -144,9 +144,12 @@ impl<T> Block<T> {
 pub struct AnalysisEntry {
     /// A column only this kind's data CSVs have.
     pub marker: &'static str,
-    /// The kind's columns the analysis does not read (they may be
+    /// The kind's columns the analysis does not need (they may be
     /// missing; every other column must be present).
     pub unread: &'static [&'static str],
+    /// Of those, the ones it reads when every data file of the kind has
+    /// them (columns added after older files were written).
+    pub optional: &'static [&'static str],
     /// The analysis of the folder's completed, non-practice rows of this
     /// kind (`folder` for what the data CSVs do not hold, such as the
     /// protocol's display order).
@@ -267,6 +270,10 @@ macro_rules! kinds {
         /// The kind-specific part of a record.
         #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
         #[serde(tag = "kind")]
+        #[allow(
+            clippy::large_enum_variant,
+            reason = "one record per trial, moved a few times; boxing would change every match on it"
+        )]
         pub enum TrialData {
             $(
                 $(#[doc = $doc])*

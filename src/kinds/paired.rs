@@ -78,6 +78,7 @@ impl StudyKind for Paired {
     const ANALYSIS: Option<AnalysisEntry> = Some(AnalysisEntry {
         marker: "choice",
         unread: &[],
+        optional: &[],
         run: |rows, _| {
             let p = crate::analysis::paired::analyze(rows)?;
             Ok(Section {

@@ -143,6 +143,10 @@ pub enum Question {
 
 /// What the engine asks the shell to do.
 #[derive(Debug, Clone, PartialEq)]
+#[expect(
+    clippy::large_enum_variant,
+    reason = "a Record comes once per trial; boxing it would change every match on it"
+)]
 pub enum Action {
     /// Render this model from now on (`None`: render nothing).
     Render(Option<ModelParams>),
