@@ -315,6 +315,7 @@ fn fitts_statistics_match_hand_computation() {
         &[0.0, 0.5, 1.0, 1.5],
         &[-0.0081, 0.0083, -0.0078, 0.008],
         &[-0.008, 0.008, -0.008, 0.008],
+        &[true; 4],
     );
     assert!(close(direct.unwrap(), 8.085_122_305_839_352));
 }
@@ -389,11 +390,11 @@ fn fitts_accuracy_and_throughput_use_every_click_and_aborted_tests_are_counted()
     );
     let analysis = analyze(dir.path()).unwrap();
     let f = &analysis.summary["fitts"];
-    // Throughput of A: deviations 0.012, -0.001, -0.003, 0.003 (squared
-    // residuals 1.3275e-4 over 3), amplitudes 0.113, 0.013, 0.096, 0.100,
-    // MT 3.5/4. Of B: deviations -0.002, 0.002, -0.002 (squared residuals
-    // 1.0666...e-5 over 2), amplitudes 0.1 each, MT 1.
-    let tp_a = (0.0805 / (4.133 * (1.3275e-4_f64 / 3.0).sqrt()) + 1.0).log2() / 0.875;
+    // Throughput of A: deviations after the first hit 0.012, -0.001,
+    // -0.003, 0.003 (squared residuals 1.3275e-4 over 3); hit to hit
+    // 0.100, 0.096, 0.100 m in 3.5 s. Of B: deviations -0.002, 0.002,
+    // -0.002 (squared residuals 1.0666...e-5 over 2), 0.1 m each, MT 1 s.
+    let tp_a = (0.296 / 3.0 / (4.133 * (1.3275e-4_f64 / 3.0).sqrt()) + 1.0).log2() / (3.5 / 3.0);
     let tp_b = (0.1 / (4.133 * (3.2e-5_f64 / 3.0 / 2.0).sqrt()) + 1.0).log2();
     // The mean of each participant's sequences, then of participants.
     assert_close(

@@ -18,9 +18,10 @@
 //!   more nor less accurate). `quadrants_error_count` does the same with
 //!   the number of errors as the accuracy axis.
 //! - Regression: OLS of MT on ID over every test of the condition.
-//! - Throughput: each test's ISO 9241-9 effective throughput from every
-//!   click, hits and misses ([`super::stats::effective_throughput`]; from
-//!   the hits alone for data files written before clicks were logged),
+//! - Throughput: each test's ISO 9241-9 effective throughput, its endpoint
+//!   spread from every click, hits and misses
+//!   ([`super::stats::effective_throughput`]; from the hits alone for data
+//!   files written before clicks were logged),
 //!   averaged per condition: the mean of each participant's sequences,
 //!   then the mean of participants.
 
@@ -92,17 +93,22 @@ fn tests(rows: &Rows) -> Result<Vec<Test>, Problem> {
             // Every click when logged; hits only in data files written
             // before clicks were logged.
             let clicks = rows.list("click_times_s", i)?;
-            let (times, x, targets) = if clicks.is_empty() {
+            let (times, x, targets, hit) = if clicks.is_empty() {
+                let times = rows.list("tap_times_s", i)?;
+                let hit = vec![true; times.len()];
                 (
-                    rows.list("tap_times_s", i)?,
+                    times,
                     rows.list("tap_x_m", i)?,
                     rows.list("target_x_m", i)?,
+                    hit,
                 )
             } else {
+                let hit = rows.text("click_hit", i).split(';').map(|h| h == "true");
                 (
                     clicks,
                     rows.list("click_x_m", i)?,
                     rows.list("click_target_x_m", i)?,
+                    hit.collect(),
                 )
             };
             Ok(Test {
@@ -119,7 +125,7 @@ fn tests(rows: &Rows) -> Result<Vec<Test>, Problem> {
                         .map(|(x, c)| (x - c).abs())
                         .collect::<Vec<_>>(),
                 ),
-                throughput: effective_throughput(&times, &x, &targets),
+                throughput: effective_throughput(&times, &x, &targets, &hit),
             })
         })
         .collect()

@@ -188,7 +188,8 @@ impl Rows {
     }
 
     /// The rows of the same files that did not complete (aborted, timed
-    /// out), which the analysis leaves out and counts.
+    /// out), which the analysis leaves out and counts (empty unless its
+    /// entry `counts_aborted`).
     #[must_use]
     pub fn aborted(&self) -> Rows {
         Rows {
@@ -446,14 +447,15 @@ pub fn load(dir: &Path) -> Result<BTreeMap<&'static str, Rows>, Problem> {
     for (name, (kind, entry, paths, optional)) in by_kind {
         let mut columns = needed(kind, &entry);
         columns.extend(optional);
-        out.insert(name, scan(&paths, &columns)?);
+        out.insert(name, scan(&paths, &columns, entry.counts_aborted)?);
     }
     Ok(out)
 }
 
 /// Lazily scans `paths` (all columns as text), keeps the non-practice rows
-/// and the `columns` asked for, completed ones apart from the others.
-fn scan(paths: &[PathBuf], columns: &[&str]) -> Result<Rows, Problem> {
+/// and the `columns` asked for: the completed ones, and with
+/// `keep_aborted` the others apart.
+fn scan(paths: &[PathBuf], columns: &[&str], keep_aborted: bool) -> Result<Rows, Problem> {
     let place = paths
         .first()
         .map(|p| p.display().to_string())
@@ -463,14 +465,23 @@ fn scan(paths: &[PathBuf], columns: &[&str]) -> Result<Rows, Problem> {
         .iter()
         .map(|p| PlRefPath::from(p.to_string_lossy().as_ref()))
         .collect();
-    let rows = LazyCsvReader::new_paths(sources.into())
+    let scan = LazyCsvReader::new_paths(sources.into())
         .with_infer_schema_length(Some(0))
         .finish()
         .map_err(fail)?
         .filter(col("practice").eq(lit("false")))
-        .select(columns.iter().map(|c| col(*c)).collect::<Vec<_>>())
-        .collect()
-        .map_err(fail)?;
+        .select(columns.iter().map(|c| col(*c)).collect::<Vec<_>>());
+    // Only a kind that counts the others reads them (the filter is pushed
+    // into the scan otherwise).
+    let completed = col("status").eq(lit("completed"));
+    if !keep_aborted {
+        return Ok(Rows {
+            frame: scan.filter(completed).collect().map_err(fail)?,
+            aborted: DataFrame::empty(),
+            files: paths.to_vec(),
+        });
+    }
+    let rows = scan.collect().map_err(fail)?;
     let completed = |yes: bool| {
         let status = col("status").eq(lit("completed"));
         rows.clone()

@@ -142,33 +142,43 @@ pub fn binomial_two_sided(k: u64, n: u64) -> Option<f64> {
     Some((2.0 * d.cdf(k.min(n - k))).min(1.0))
 }
 
-/// ISO 9241-9 effective throughput of one sequence of selections (every
-/// click, hits and misses, in order), bits/s, as GoFitts computes it.
+/// ISO 9241-9 effective throughput of one reciprocal tapping sequence,
+/// from every click (hits and misses, in order, `hit` saying which), bits/s.
 ///
-/// Every selection ends a movement, so movement i runs from selection i-1
-/// to selection i (i >= 1); a corrective click after a miss is a short
-/// movement to the same target. Targets are centred at `-A/2` and `+A/2`,
-/// so a movement to the target at `c_i` runs in direction `sgn(c_i)`. With
-/// `a_i = |x_i - x_{i-1}|` and the signed endpoint deviation along the
-/// movement `dx_i = (x_i - c_i) sgn(c_i)` (positive: overshoot):
-/// `We = 4.133 SD(dx)`, `Ae = mean(a_i)`, `IDe = log2(Ae / We + 1)`,
-/// `MT = (t_last - t_first) / movements`, `TP = IDe / MT`.
+/// The sequence starts at the first hit. The lit target switches only on a
+/// hit, so a movement runs from one hit to the next; a miss and its
+/// correction belong to the movement they end. Targets are centred at
+/// `-A/2` and `+A/2`, so a click on the target at `c` ends a movement in
+/// direction `sgn(c)`, and its signed endpoint deviation along the axis is
+/// `dx = (x - c) sgn(c)` (positive: overshoot).
+/// - `We = 4.133 SD(dx)` over every click after the first hit (the spread
+///   of every selection endpoint, misses included: hits alone would
+///   truncate it at the target's edges);
+/// - `Ae` = the mean distance between successive hits;
+/// - `MT = (t_last hit - t_first hit) / movements`;
+/// - `IDe = log2(Ae / We + 1)`, `TP = IDe / MT`.
+///
 /// `None` with fewer than 2 movements, no endpoint spread, or no time.
 #[must_use]
-pub fn effective_throughput(times: &[f64], x: &[f64], targets: &[f64]) -> Option<f64> {
-    let n = times.len().min(x.len()).min(targets.len());
-    if n < 3 {
+pub fn effective_throughput(
+    times: &[f64],
+    x: &[f64],
+    targets: &[f64],
+    hit: &[bool],
+) -> Option<f64> {
+    let n = times.len().min(x.len()).min(targets.len()).min(hit.len());
+    let hits: Vec<usize> = (0..n).filter(|&i| hit[i]).collect();
+    let (&first, &last) = (hits.first()?, hits.last()?);
+    if hits.len() < 3 {
         return None;
     }
-    let mut amplitudes = Vec::with_capacity(n - 1);
-    let mut deviations = Vec::with_capacity(n - 1);
-    for i in 1..n {
-        amplitudes.push((x[i] - x[i - 1]).abs());
-        deviations.push((x[i] - targets[i]) * targets[i].signum());
-    }
+    let deviations: Vec<f64> = (first + 1..n)
+        .map(|i| (x[i] - targets[i]) * targets[i].signum())
+        .collect();
+    let amplitudes: Vec<f64> = hits.windows(2).map(|w| (x[w[1]] - x[w[0]]).abs()).collect();
     let we = 4.133 * sample_sd(&deviations)?;
     let ae = mean(&amplitudes)?;
-    let mt = (times[n - 1] - times[0]) / (n - 1) as f64;
+    let mt = (times[last] - times[first]) / (hits.len() - 1) as f64;
     (we > 0.0 && mt > 0.0).then(|| (ae / we + 1.0).log2() / mt)
 }
 
@@ -193,19 +203,22 @@ mod tests {
         let times = [0.0, 1.0, 1.4, 2.4, 3.5];
         let x = [-0.051, 0.062, 0.049, -0.047, 0.053];
         let targets = [-0.05, 0.05, 0.05, -0.05, 0.05];
-        // Signed deviations 0.012, -0.001, -0.003, 0.003: mean 0.00275,
-        // squared residuals sum 1.3275e-4 over 3 degrees of freedom.
+        let hit = [true, false, true, true, true];
+        // Signed deviations of the clicks after the first hit: 0.012,
+        // -0.001, -0.003, 0.003; mean 0.00275, squared residuals 1.3275e-4
+        // over 3 degrees of freedom.
         let we = 4.133 * (1.3275e-4_f64 / 3.0).sqrt();
-        // Amplitudes 0.113, 0.013, 0.096, 0.100.
-        let ae = 0.322 / 4.0;
-        let mt = 3.5 / 4.0;
+        // Hit to hit: 0.100, 0.096, 0.100 m in 3.5 s.
+        let ae = 0.296 / 3.0;
+        let mt = 3.5 / 3.0;
         let expected = (ae / we + 1.0).log2() / mt;
-        let tp = effective_throughput(&times, &x, &targets).unwrap();
+        let tp = effective_throughput(&times, &x, &targets, &hit).unwrap();
         assert!((tp - expected).abs() < 1e-9, "{tp} vs {expected}");
-        // Hits only (the misses left out) overstates it: a narrower spread.
+        // The hits alone (the miss left out) overstate it: a narrower spread.
         let hits = [0, 2, 3, 4];
         let pick = |v: &[f64]| hits.iter().map(|&i| v[i]).collect::<Vec<_>>();
-        let hits_only = effective_throughput(&pick(&times), &pick(&x), &pick(&targets)).unwrap();
+        let hits_only =
+            effective_throughput(&pick(&times), &pick(&x), &pick(&targets), &[true; 4]).unwrap();
         assert!(hits_only > tp, "{hits_only} vs {tp}");
     }
 }

@@ -248,6 +248,7 @@ impl StudyKind for Fitts {
             "click_hit",
         ],
         optional: &["click_times_s", "click_x_m", "click_target_x_m", "click_hit"],
+        counts_aborted: true,
         run: |rows, _| {
             let f = crate::analysis::fitts::analyze(rows)?;
             Ok(Section {

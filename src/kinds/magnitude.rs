@@ -157,6 +157,7 @@ impl StudyKind for Magnitude {
         marker: "display",
         unread: &["response_time_s"],
         optional: &[],
+        counts_aborted: false,
         run: |rows, folder| {
             let m = crate::analysis::magnitude::analyze(rows, &display_order(folder))?;
             Ok(Section {

@@ -150,6 +150,9 @@ pub struct AnalysisEntry {
     /// Of those, the ones it reads when every data file of the kind has
     /// them (columns added after older files were written).
     pub optional: &'static [&'static str],
+    /// It also reads the rows that did not complete, to count them
+    /// (`Rows::aborted`).
+    pub counts_aborted: bool,
     /// The analysis of the folder's completed, non-practice rows of this
     /// kind (`folder` for what the data CSVs do not hold, such as the
     /// protocol's display order).

@@ -79,6 +79,7 @@ impl StudyKind for Paired {
         marker: "choice",
         unread: &[],
         optional: &[],
+        counts_aborted: false,
         run: |rows, _| {
             let p = crate::analysis::paired::analyze(rows)?;
             Ok(Section {
