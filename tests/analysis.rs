@@ -101,21 +101,22 @@ fn magnitude_statistics_match_hand_computation() {
     let s = analyze(dir.path()).unwrap().summary;
     let m = &s["magnitude_estimation"];
     // Worked by hand in log2 units: grand mean 26/11; pooled shifts A +4/11,
-    // B -24/55; per-display shifts tactile A +1/2, B -1/2, force A +2/5,
-    // B -3/5. No logs here, so displays are in alphabetical order.
+    // B -24/55; per_display divides by each participant's geometric mean on
+    // that display (tactile A 2^1, B 2^2; force A 2^3, B 2^4). No logs here,
+    // so displays are in alphabetical order.
     let expected = [
         ("force", "pooled", 0.4, 271.0 / 110.0),
         ("force", "pooled", 0.5, 218.0 / 55.0),
         ("force", "pooled", 0.6, 48.0 / 11.0),
-        ("force", "per_display", 0.4, 2.4),
-        ("force", "per_display", 0.5, 3.9),
-        ("force", "per_display", 0.6, 4.4),
+        ("force", "per_display", 0.4, -1.0),
+        ("force", "per_display", 0.5, 0.5),
+        ("force", "per_display", 0.6, 1.0),
         ("tactile", "pooled", 0.4, 51.0 / 110.0),
         ("tactile", "pooled", 0.5, 161.0 / 110.0),
         ("tactile", "pooled", 0.6, 271.0 / 110.0),
-        ("tactile", "per_display", 0.4, 0.5),
-        ("tactile", "per_display", 0.5, 1.5),
-        ("tactile", "per_display", 0.6, 2.5),
+        ("tactile", "per_display", 0.4, -1.0),
+        ("tactile", "per_display", 0.5, 0.0),
+        ("tactile", "per_display", 0.6, 1.0),
     ];
     let gms = m["geometric_means"].as_array().unwrap();
     assert_eq!(gms.len(), expected.len());
@@ -139,16 +140,44 @@ fn magnitude_statistics_match_hand_computation() {
     // mean tactile pooled log2) = 2^(32/15).
     assert_eq!(m["displays"], serde_json::json!(["force", "tactile"]));
     assert_close(&m["display_ratio"], 2f64.powf(32.0 / 15.0), "display_ratio");
-    // Pearson of per_display values (force 2^2.4, 2^3.9, 2^4.4 against tactile
-    // 2^0.5, 2^1.5, 2^2.5): r = 0.9505263865379904, n = 3; p from t with
+    // One delta_mu series (0.2): its ratio is the whole ratio.
+    assert_eq!(m["display_ratio_by_delta_mu"].as_array().unwrap().len(), 1);
+    assert_close(
+        &m["display_ratio_by_delta_mu"][0]["ratio"],
+        2f64.powf(32.0 / 15.0),
+        "display_ratio_by_delta_mu",
+    );
+    // Force pooled at mu_s 0.5: A 2^(3 + 4/11), B 2^(5 - 24/55), 1.2 log2
+    // units apart: SD 1.2/sqrt(2) log2 units, so gsd 2^(1.2/sqrt(2)); the CI
+    // is the mean 218/55 +- t(0.975, 1 df) 1.2/2 (t = 12.706204736174705).
+    let g = gms
+        .iter()
+        .find(|g| {
+            g["display"] == "force"
+                && g["normalization"] == "pooled"
+                && g["mu_s"].as_f64() == Some(0.5)
+        })
+        .unwrap();
+    assert_close(&g["gsd"], 2f64.powf(1.2 / 2f64.sqrt()), "gsd");
+    let t = 12.706_204_736_174_705;
+    assert_close(&g["ci_low"], 2f64.powf(218.0 / 55.0 - 0.6 * t), "ci_low");
+    assert_close(&g["ci_high"], 2f64.powf(218.0 / 55.0 + 0.6 * t), "ci_high");
+    // A single answer has no spread: force at mu_s 0.6 (A only).
+    let single = gms
+        .iter()
+        .find(|g| g["display"] == "force" && g["mu_s"].as_f64() == Some(0.6))
+        .unwrap();
+    assert!(single["gsd"].is_null() && single["ci_low"].is_null());
+    // Pearson of per_display values (force 2^-1, 2^0.5, 2^1 against tactile
+    // 2^-1, 2^0, 2^1): r = 0.9505263865379904, n = 3; p from t with
     // 1 df: 2 (1/2 - atan(|t|)/pi) = 0.20108927655343978; no CI for n = 3.
     let c = &m["correlations"][0];
     assert_close(&c["r"], 0.950_526_386_537_990_4, "r");
     assert_eq!(c["n"], 3);
     assert_close(&c["p"], 0.201_089_276_553_439_78, "p");
     assert!(c["ci95_low"].is_null());
-    // Trend of force per_display against mu_s: slope of (0.4, 2^2.4),
-    // (0.5, 2^3.9), (0.6, 2^4.4) = (2^4.4 - 2^2.4) / 0.2 (x evenly spaced).
+    // Trend of force per_display against mu_s: slope of (0.4, 2^-1),
+    // (0.5, 2^0.5), (0.6, 2^1) = (2^1 - 2^-1) / 0.2 (x evenly spaced).
     let t = m["trends"]
         .as_array()
         .unwrap()
@@ -157,11 +186,7 @@ fn magnitude_statistics_match_hand_computation() {
             t["display"] == "force" && t["normalization"] == "per_display" && t["against"] == "mu_s"
         })
         .unwrap();
-    assert_close(
-        &t["slope"],
-        (2f64.powf(4.4) - 2f64.powf(2.4)) / 0.2,
-        "trend slope",
-    );
+    assert_close(&t["slope"], (2.0 - 0.5) / 0.2, "trend slope");
     assert_eq!(
         s["inputs"]["analysed_rows"]["magnitude_estimation"], 11,
         "practice and aborted rows left out"

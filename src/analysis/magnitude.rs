@@ -4,14 +4,19 @@
 //! Definitions (CONTRACT.md's `summary.json`):
 //! - `pooled`: each answer is scaled by (grand geometric mean of all answers)
 //!   / (that participant's geometric mean over both displays);
-//!   `per_display`: the same within each display.
+//!   `per_display`: each display on its own scale: each answer is divided by
+//!   that participant's geometric mean on that display (each display's
+//!   grand geometric mean is then 1).
 //! - A stimulus's value is the geometric mean of its scaled answers (all
-//!   participants, all repetitions).
+//!   participants, all repetitions), with `gsd` (the geometric standard
+//!   deviation of the scaled answers) and a 95% CI (t interval on the
+//!   logarithms).
 //! - `correlations`: per delta_mu series, Pearson r between the two displays'
 //!   `per_display` values across the series' mu_s values, with n, a 95% CI
 //!   (Fisher z) and a two-sided p (t test).
 //! - `display_ratio`: the geometric mean of the first display's `pooled`
-//!   values over the second's. The first display is the protocol's first set
+//!   values over the second's; `display_ratio_by_delta_mu` the same within
+//!   each delta_mu series. The first display is the protocol's first set
 //!   (from the session logs). Without logs, the displays go in alphabetical
 //!   order.
 //! - `trends` (extra): per display and normalization, the least-squares slope
@@ -22,7 +27,7 @@ use std::collections::HashMap;
 
 use serde_json::{Value, json};
 
-use super::stats::{geometric_mean, linear_fit, pearson};
+use super::stats::{GeoSummary, geometric_mean, linear_fit, log_summary, pearson};
 use super::{Cell, Rows, Table, num, opt, text};
 use crate::problem::Problem;
 
@@ -41,6 +46,13 @@ pub struct GeoMean {
     pub normalization: &'static str,
     /// The geometric mean.
     pub value: f64,
+    /// Geometric standard deviation of the normalized answers (n >= 2).
+    pub gsd: Option<f64>,
+    /// 95% confidence interval of the geometric mean, low (t interval on
+    /// the logarithms; n >= 2).
+    pub ci_low: Option<f64>,
+    /// The interval's high end.
+    pub ci_high: Option<f64>,
     /// Answers behind it.
     pub n: usize,
 }
@@ -119,61 +131,76 @@ fn display_list(a: &Answers, order: &[String]) -> Vec<String> {
     displays
 }
 
+/// One stimulus's normalized answers (natural logs), per normalization.
+struct Stimulus {
+    display: u32,
+    mu_s: f64,
+    mu_k: f64,
+    delta_mu: f64,
+    pooled: Vec<f64>,
+    per_display: Vec<f64>,
+}
+
 /// Both normalizations' geometric means per stimulus, sorted by display
 /// order, normalization, delta_mu, mu_s.
 fn normalized_means(a: &Answers, displays: &[String]) -> Vec<GeoMean> {
     let (np, nd) = (a.participants, a.display_names.len());
-    // Sums and counts of logs: per participant, per participant x display,
-    // per display.
+    // Sums and counts of logs: per participant, per participant x display.
     let (mut p_sum, mut p_n) = (vec![0.0; np], vec![0.0; np]);
     let (mut pd_sum, mut pd_n) = (vec![0.0; np * nd], vec![0.0; np * nd]);
-    let (mut d_sum, mut d_n) = (vec![0.0; nd], vec![0.0; nd]);
     for i in 0..a.ln.len() {
         let (p, d) = (a.participant[i] as usize, a.display[i] as usize);
         p_sum[p] += a.ln[i];
         p_n[p] += 1.0;
         pd_sum[p * nd + d] += a.ln[i];
         pd_n[p * nd + d] += 1.0;
-        d_sum[d] += a.ln[i];
-        d_n[d] += 1.0;
     }
     let grand = a.ln.iter().sum::<f64>() / a.ln.len().max(1) as f64;
-    // Per stimulus: (mu_s, mu_k, delta_mu, sum pooled, sum per_display, n).
-    let mut stimuli: HashMap<(u32, u64, u64), usize> = HashMap::new();
-    let mut acc: Vec<(u32, f64, f64, f64, f64, f64, usize)> = Vec::new();
+    let mut index: HashMap<(u32, u64, u64), usize> = HashMap::new();
+    let mut stimuli: Vec<Stimulus> = Vec::new();
     for i in 0..a.ln.len() {
         let (p, d) = (a.participant[i] as usize, a.display[i] as usize);
-        let pooled = a.ln[i] + grand - p_sum[p] / p_n[p];
-        let per_display = a.ln[i] + d_sum[d] / d_n[d] - pd_sum[p * nd + d] / pd_n[p * nd + d];
-        let k = *stimuli
+        let k = *index
             .entry((a.display[i], a.mu_s[i].to_bits(), a.mu_k[i].to_bits()))
             .or_insert_with(|| {
-                acc.push((
-                    a.display[i],
-                    a.mu_s[i],
-                    a.mu_k[i],
-                    a.delta_mu[i],
-                    0.0,
-                    0.0,
-                    0,
-                ));
-                acc.len() - 1
+                stimuli.push(Stimulus {
+                    display: a.display[i],
+                    mu_s: a.mu_s[i],
+                    mu_k: a.mu_k[i],
+                    delta_mu: a.delta_mu[i],
+                    pooled: Vec::new(),
+                    per_display: Vec::new(),
+                });
+                stimuli.len() - 1
             });
-        acc[k].4 += pooled;
-        acc[k].5 += per_display;
-        acc[k].6 += 1;
+        stimuli[k].pooled.push(a.ln[i] + grand - p_sum[p] / p_n[p]);
+        stimuli[k]
+            .per_display
+            .push(a.ln[i] - pd_sum[p * nd + d] / pd_n[p * nd + d]);
     }
-    let mut means: Vec<GeoMean> = Vec::with_capacity(2 * acc.len());
-    for (d, mu_s, mu_k, delta_mu, pooled, per_display, n) in acc {
-        for (normalization, sum) in [("pooled", pooled), ("per_display", per_display)] {
+    let mut means: Vec<GeoMean> = Vec::with_capacity(2 * stimuli.len());
+    for st in stimuli {
+        for (normalization, ln) in [("pooled", &st.pooled), ("per_display", &st.per_display)] {
+            let Some(GeoSummary {
+                value,
+                gsd,
+                ci_low,
+                ci_high,
+            }) = log_summary(ln)
+            else {
+                continue;
+            };
             means.push(GeoMean {
-                display: a.display_names[d as usize].clone(),
-                mu_s,
-                mu_k,
-                delta_mu,
+                display: a.display_names[st.display as usize].clone(),
+                mu_s: st.mu_s,
+                mu_k: st.mu_k,
+                delta_mu: st.delta_mu,
                 normalization,
-                value: (sum / n as f64).exp(),
-                n,
+                value,
+                gsd,
+                ci_low,
+                ci_high,
+                n: ln.len(),
             });
         }
     }
@@ -198,6 +225,14 @@ fn normalized_means(a: &Answers, displays: &[String]) -> Vec<GeoMean> {
     means
 }
 
+/// The delta_mu series present, ascending.
+fn delta_mu_series(means: &[GeoMean]) -> Vec<f64> {
+    let mut series: Vec<f64> = means.iter().map(|m| m.delta_mu).collect();
+    series.sort_by(f64::total_cmp);
+    series.dedup();
+    series
+}
+
 /// Per delta_mu series: Pearson r between the two displays' per_display
 /// values across mu_s. JSON entries and table rows.
 fn correlations(
@@ -206,10 +241,7 @@ fn correlations(
     notes: &mut Vec<String>,
 ) -> (Vec<Value>, Vec<Vec<Cell>>) {
     let (mut json_rows, mut rows) = (Vec::new(), Vec::new());
-    let mut series: Vec<f64> = means.iter().map(|m| m.delta_mu).collect();
-    series.sort_by(f64::total_cmp);
-    series.dedup();
-    for dm in series {
+    for dm in delta_mu_series(means) {
         let of = |d: &String| -> Vec<&GeoMean> {
             means
                 .iter()
@@ -280,6 +312,62 @@ fn columns(names: &[&str]) -> Vec<String> {
     names.iter().map(|s| (*s).to_owned()).collect()
 }
 
+/// The geometric means, correlations and trends as tables.
+fn tables(means: &[GeoMean], corr_rows: Vec<Vec<Cell>>, trend_rows: Vec<Vec<Cell>>) -> Vec<Table> {
+    vec![
+        Table {
+            name: "magnitude_geometric_means".into(),
+            columns: columns(&[
+                "display",
+                "mu_s",
+                "mu_k",
+                "delta_mu",
+                "normalization",
+                "value",
+                "n",
+                "gsd",
+                "ci_low",
+                "ci_high",
+            ]),
+            rows: means
+                .iter()
+                .map(|m| {
+                    vec![
+                        text(m.display.clone()),
+                        num(m.mu_s),
+                        num(m.mu_k),
+                        num(m.delta_mu),
+                        text(m.normalization),
+                        num(m.value),
+                        num(m.n as f64),
+                        opt(m.gsd),
+                        opt(m.ci_low),
+                        opt(m.ci_high),
+                    ]
+                })
+                .collect(),
+        },
+        Table {
+            name: "magnitude_correlations".into(),
+            columns: columns(&["delta_mu", "r", "n", "ci95_low", "ci95_high", "p"]),
+            rows: corr_rows,
+        },
+        Table {
+            name: "magnitude_trends".into(),
+            columns: columns(&[
+                "display",
+                "normalization",
+                "against",
+                "slope",
+                "intercept",
+                "r",
+                "n",
+            ]),
+            rows: trend_rows,
+        },
+    ]
+}
+
 /// Analyses the magnitude-estimation rows. `order` is the protocol's display
 /// order (may be empty).
 ///
@@ -306,78 +394,43 @@ pub fn analyze(rows: &Rows, order: &[String]) -> Result<Magnitude, Problem> {
         }
         (Vec::new(), Vec::new())
     };
-    let pooled = |d: &str| -> Vec<f64> {
-        means
-            .iter()
-            .filter(|m| m.display == d && m.normalization == "pooled")
-            .map(|m| m.value)
-            .collect()
+    let ratio = |series: Option<f64>| -> Option<f64> {
+        let pooled = |d: &str| -> Vec<f64> {
+            means
+                .iter()
+                .filter(|m| m.display == d && m.normalization == "pooled")
+                .filter(|m| series.is_none_or(|dm| m.delta_mu == dm))
+                .map(|m| m.value)
+                .collect()
+        };
+        (displays.len() == 2)
+            .then(|| {
+                geometric_mean(&pooled(&displays[0]))
+                    .zip(geometric_mean(&pooled(&displays[1])))
+                    .map(|(a, b)| a / b)
+            })
+            .flatten()
     };
-    let display_ratio = (displays.len() == 2)
-        .then(|| {
-            geometric_mean(&pooled(&displays[0]))
-                .zip(geometric_mean(&pooled(&displays[1])))
-                .map(|(a, b)| a / b)
-        })
-        .flatten();
+    let display_ratio = ratio(None);
+    let ratio_by_delta_mu: Vec<Value> = delta_mu_series(&means)
+        .iter()
+        .map(|&dm| json!({"delta_mu": dm, "ratio": ratio(Some(dm))}))
+        .collect();
     let (trends, trend_rows) = trends(&means, &displays);
     let summary = json!({
         "displays": displays,
         "geometric_means": means.iter().map(|m| json!({
             "display": m.display, "mu_s": m.mu_s, "mu_k": m.mu_k, "delta_mu": m.delta_mu,
-            "normalization": m.normalization, "value": m.value, "n": m.n,
+            "normalization": m.normalization, "value": m.value, "gsd": m.gsd,
+            "ci_low": m.ci_low, "ci_high": m.ci_high, "n": m.n,
         })).collect::<Vec<_>>(),
         "correlations": correlations,
         "display_ratio": display_ratio,
+        "display_ratio_by_delta_mu": ratio_by_delta_mu,
         "trends": trends,
         "participants": participants,
     });
-    let tables = vec![
-        Table {
-            name: "magnitude_geometric_means".into(),
-            columns: columns(&[
-                "display",
-                "mu_s",
-                "mu_k",
-                "delta_mu",
-                "normalization",
-                "value",
-                "n",
-            ]),
-            rows: means
-                .iter()
-                .map(|m| {
-                    vec![
-                        text(m.display.clone()),
-                        num(m.mu_s),
-                        num(m.mu_k),
-                        num(m.delta_mu),
-                        text(m.normalization),
-                        num(m.value),
-                        num(m.n as f64),
-                    ]
-                })
-                .collect(),
-        },
-        Table {
-            name: "magnitude_correlations".into(),
-            columns: columns(&["delta_mu", "r", "n", "ci95_low", "ci95_high", "p"]),
-            rows: corr_rows,
-        },
-        Table {
-            name: "magnitude_trends".into(),
-            columns: columns(&[
-                "display",
-                "normalization",
-                "against",
-                "slope",
-                "intercept",
-                "r",
-                "n",
-            ]),
-            rows: trend_rows,
-        },
-    ];
+    let tables = tables(&means, corr_rows, trend_rows);
     Ok(Magnitude {
         summary,
         tables,

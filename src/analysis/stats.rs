@@ -83,6 +83,38 @@ pub fn pearson(pairs: &[(f64, f64)]) -> Option<Correlation> {
     })
 }
 
+/// A geometric mean with its spread and 95% confidence interval.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GeoSummary {
+    /// The geometric mean.
+    pub value: f64,
+    /// Geometric standard deviation (`None` for fewer than 2 values).
+    pub gsd: Option<f64>,
+    /// 95% confidence interval of the geometric mean, low end (t interval
+    /// on the logarithms).
+    pub ci_low: Option<f64>,
+    /// Its high end.
+    pub ci_high: Option<f64>,
+}
+
+/// The geometric summary of positive values given as their logarithms.
+#[must_use]
+pub fn log_summary(ln: &[f64]) -> Option<GeoSummary> {
+    let m = mean(ln)?;
+    let sd = sample_sd(ln);
+    let half = sd.and_then(|sd| {
+        StudentsT::new(0.0, 1.0, (ln.len() - 1) as f64)
+            .ok()
+            .map(|t| t.inverse_cdf(0.975) * sd / (ln.len() as f64).sqrt())
+    });
+    Some(GeoSummary {
+        value: m.exp(),
+        gsd: sd.map(f64::exp),
+        ci_low: half.map(|h| (m - h).exp()),
+        ci_high: half.map(|h| (m + h).exp()),
+    })
+}
+
 /// Ordinary least squares of y on x.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Fit {
