@@ -194,6 +194,65 @@ fn magnitude_statistics_match_hand_computation() {
 }
 
 #[test]
+fn magnitude_drivers_separate_mu_s_from_mu_k() {
+    let dir = tempfile::tempdir().unwrap();
+    // One participant, one display; magnitudes per (mu_s, delta_mu).
+    let grid = [
+        (0.1, [1.0, 2.0, 3.0]),
+        (0.2, [3.0, 1.0, 2.0]),
+        (0.3, [2.0, 2.0, 5.0]),
+    ];
+    let mut rows = Vec::new();
+    for (delta, answers) in grid {
+        for (mu_s, m) in [0.4, 0.5, 0.6].into_iter().zip(answers) {
+            rows.push(vec![
+                ("participant", "A".to_owned()),
+                ("display", "force".to_owned()),
+                ("mu_s", mu_s.to_string()),
+                ("mu_k", (mu_s - delta).to_string()),
+                ("delta_mu", delta.to_string()),
+                ("magnitude", m.to_string()),
+            ]);
+        }
+    }
+    data(
+        dir.path(),
+        "study-fixture_subject-A_session-1",
+        Kind::MagnitudeEstimation,
+        &rows,
+    );
+    let s = analyze(dir.path()).unwrap().summary;
+    let drivers = s["magnitude_estimation"]["drivers"].as_array().unwrap();
+    let r = |against: &str, key: &str, at: f64| {
+        drivers
+            .iter()
+            .find(|d| d["against"] == against && d[key].as_f64().is_some_and(|x| close(x, at)))
+            .unwrap_or_else(|| panic!("{against} at {key} {at}"))["r"]
+            .clone()
+    };
+    // Against mu_s within each series (x 0.4, 0.5, 0.6; per_display only
+    // rescales, r is unchanged): y (1, 2, 3) r 1; (3, 1, 2) r -0.5;
+    // (2, 2, 5) r sqrt(3)/2.
+    assert_close(&r("mu_s", "delta_mu", 0.1), 1.0, "mu_s, delta_mu 0.1");
+    assert_close(&r("mu_s", "delta_mu", 0.2), -0.5, "mu_s, delta_mu 0.2");
+    assert_close(
+        &r("mu_s", "delta_mu", 0.3),
+        3f64.sqrt() / 2.0,
+        "mu_s, delta_mu 0.3",
+    );
+    // Against mu_k at each mu_s: at 0.4, (0.3, 1), (0.2, 3), (0.1, 2): r
+    // -0.5; at 0.5, (0.4, 2), (0.3, 1), (0.2, 2): r 0; at 0.6, (0.5, 3),
+    // (0.4, 2), (0.3, 5): r -sqrt(3/7).
+    assert_close(&r("mu_k", "mu_s", 0.4), -0.5, "mu_k at mu_s 0.4");
+    assert!(r("mu_k", "mu_s", 0.5).as_f64().unwrap().abs() < 1e-9);
+    assert_close(
+        &r("mu_k", "mu_s", 0.6),
+        -(3.0f64 / 7.0).sqrt(),
+        "mu_k at mu_s 0.6",
+    );
+}
+
+#[test]
 fn paired_statistics_match_hand_computation() {
     let dir = tempfile::tempdir().unwrap();
     let row = |p: &str, first: &str, second: &str, choice: &str, chosen: &str| {

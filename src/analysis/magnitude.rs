@@ -20,8 +20,13 @@
 //!   (from the session logs). Without logs, the displays go in alphabetical
 //!   order.
 //! - `trends` (extra): per display and normalization, the least-squares slope
-//!   of value against mu_s and against mu_k, with Pearson r: which
-//!   coefficient drives perception.
+//!   of value against mu_s and against mu_k, with Pearson r, over every
+//!   stimulus (where mu_s and mu_k move together, so they cannot be told
+//!   apart there).
+//! - `drivers` (extra): which coefficient drives each display, the two
+//!   separated: on the `per_display` values, r and slope against mu_s within
+//!   each delta_mu series, and against mu_k within each mu_s level (the
+//!   series at that mu_s).
 
 use std::collections::HashMap;
 
@@ -308,6 +313,52 @@ fn trends(means: &[GeoMean], displays: &[String]) -> (Vec<Value>, Vec<Vec<Cell>>
     (json_rows, rows)
 }
 
+/// What drives each display's answers, with mu_s and mu_k separated: per
+/// display, on the `per_display` values, the Pearson r and slope against
+/// mu_s within each delta_mu series (mu_k moves with it there), and against
+/// mu_k within each mu_s level (across the series, mu_s fixed).
+fn drivers(means: &[GeoMean], displays: &[String]) -> Vec<Value> {
+    let mut out = Vec::new();
+    for d in displays {
+        let of = |keep: &dyn Fn(&GeoMean) -> bool, x: fn(&GeoMean) -> f64| -> Vec<(f64, f64)> {
+            means
+                .iter()
+                .filter(|m| &m.display == d && m.normalization == "per_display" && keep(m))
+                .map(|m| (x(m), m.value))
+                .collect()
+        };
+        let entry = |against: &str,
+                     delta_mu: Option<f64>,
+                     mu_s: Option<f64>,
+                     pts: &[(f64, f64)]| {
+            json!({
+                "display": d, "against": against, "delta_mu": delta_mu, "mu_s": mu_s,
+                "r": pearson(pts).map(|c| c.r), "slope": linear_fit(pts).map(|f| f.slope), "n": pts.len(),
+            })
+        };
+        for dm in delta_mu_series(means) {
+            out.push(entry(
+                "mu_s",
+                Some(dm),
+                None,
+                &of(&|m| m.delta_mu == dm, |m| m.mu_s),
+            ));
+        }
+        let mut levels: Vec<f64> = means.iter().map(|m| m.mu_s).collect();
+        levels.sort_by(f64::total_cmp);
+        levels.dedup();
+        for mu_s in levels {
+            out.push(entry(
+                "mu_k",
+                None,
+                Some(mu_s),
+                &of(&|m| m.mu_s == mu_s, |m| m.mu_k),
+            ));
+        }
+    }
+    out
+}
+
 fn columns(names: &[&str]) -> Vec<String> {
     names.iter().map(|s| (*s).to_owned()).collect()
 }
@@ -428,6 +479,7 @@ pub fn analyze(rows: &Rows, order: &[String]) -> Result<Magnitude, Problem> {
         "display_ratio": display_ratio,
         "display_ratio_by_delta_mu": ratio_by_delta_mu,
         "trends": trends,
+        "drivers": drivers(&means, &displays),
         "participants": participants,
     });
     let tables = tables(&means, corr_rows, trend_rows);
