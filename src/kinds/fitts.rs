@@ -463,24 +463,14 @@ impl StudyKind for Fitts {
     }
 }
 
-/// The live state.
+/// The live state: every click so far (the hits and misses logged are
+/// derived from them).
 #[derive(Debug, Clone)]
 pub struct Tapping {
     trial: FittsTrial,
     lit: usize,
     centres: [f64; 2],
     deadline: f64,
-    tap_times: Vec<f64>,
-    tap_x: Vec<f64>,
-    target_x: Vec<f64>,
-    miss_x: Vec<f64>,
-    miss_size: Vec<f64>,
-    clicks: Clicks,
-}
-
-/// Every click of a test, in order.
-#[derive(Debug, Clone, Default)]
-struct Clicks {
     times: Vec<f64>,
     x: Vec<f64>,
     target: Vec<f64>,
@@ -497,12 +487,10 @@ impl Tapping {
             lit: 0,
             centres: [-a / 2.0, a / 2.0],
             deadline: now + trial.timeout_s,
-            tap_times: Vec::new(),
-            tap_x: Vec::new(),
-            target_x: Vec::new(),
-            miss_x: Vec::new(),
-            miss_size: Vec::new(),
-            clicks: Clicks::default(),
+            times: Vec::new(),
+            x: Vec::new(),
+            target: Vec::new(),
+            hit: Vec::new(),
         };
         out.push_back(Action::Physical(trial.physical.clone()));
         out.push_back(Action::Render(Some(trial.model.clone())));
@@ -526,21 +514,15 @@ impl Tapping {
         let centre = self.centres[self.lit];
         let distance = (x - centre).abs();
         let hit = distance <= half;
-        self.clicks.times.push(now);
-        self.clicks.x.push(x);
-        self.clicks.target.push(centre);
-        self.clicks.hit.push(hit);
+        self.times.push(now);
+        self.x.push(x);
+        self.target.push(centre);
+        self.hit.push(hit);
         if hit {
-            self.tap_times.push(now);
-            self.tap_x.push(x);
-            self.target_x.push(centre);
-            if self.tap_times.len() >= self.trial.taps as usize {
+            if self.hit.iter().filter(|&&h| h).count() >= self.trial.taps as usize {
                 return Next::Finish(None);
             }
             self.lit = 1 - self.lit;
-        } else {
-            self.miss_x.push(x);
-            self.miss_size.push(distance - half);
         }
         out.push_back(self.screen(!hit));
         Next::Stay
@@ -567,7 +549,22 @@ impl LiveTrial for Tapping {
 
     fn data(&self, _started: f64, _now: f64, completed: bool) -> FittsData {
         let g = &self.trial;
-        let errors = self.miss_size.len();
+        let of = |hit: bool, v: &[f64]| -> Vec<f64> {
+            v.iter()
+                .zip(&self.hit)
+                .filter(|&(_, &h)| h == hit)
+                .map(|(&v, _)| v)
+                .collect()
+        };
+        let tap_times = of(true, &self.times);
+        let miss_x = of(false, &self.x);
+        let half = g.effective_width_m / 2.0;
+        let miss_size: Vec<f64> = miss_x
+            .iter()
+            .zip(of(false, &self.target))
+            .map(|(x, c)| (x - c).abs() - half)
+            .collect();
+        let errors = miss_size.len();
         FittsData {
             condition: g.condition.clone(),
             amplitude_m: g.amplitude_m,
@@ -575,21 +572,21 @@ impl LiveTrial for Tapping {
             cursor_m: g.cursor_m,
             effective_width_m: g.effective_width_m,
             id_bits: g.id_bits,
-            completion_time_s: match (self.tap_times.first(), self.tap_times.last()) {
+            completion_time_s: match (tap_times.first(), tap_times.last()) {
                 (Some(a), Some(b)) if completed => Some(b - a),
                 _ => None,
             },
-            taps: u32::try_from(self.tap_times.len()).unwrap_or(u32::MAX),
+            taps: u32::try_from(tap_times.len()).unwrap_or(u32::MAX),
             errors: u32::try_from(errors).unwrap_or(u32::MAX),
-            mean_error_m: (errors > 0).then(|| self.miss_size.iter().sum::<f64>() / errors as f64),
-            tap_times_s: self.tap_times.clone(),
-            tap_x_m: self.tap_x.clone(),
-            target_x_m: self.target_x.clone(),
-            miss_x_m: self.miss_x.clone(),
-            click_times_s: self.clicks.times.clone(),
-            click_x_m: self.clicks.x.clone(),
-            click_target_x_m: self.clicks.target.clone(),
-            click_hit: self.clicks.hit.clone(),
+            mean_error_m: (errors > 0).then(|| miss_size.iter().sum::<f64>() / errors as f64),
+            tap_x_m: of(true, &self.x),
+            target_x_m: of(true, &self.target),
+            tap_times_s: tap_times,
+            miss_x_m: miss_x,
+            click_times_s: self.times.clone(),
+            click_x_m: self.x.clone(),
+            click_target_x_m: self.target.clone(),
+            click_hit: self.hit.clone(),
         }
     }
 }

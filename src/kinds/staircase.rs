@@ -20,7 +20,8 @@ use serde_json::Value;
 
 use super::paired::{Compare, Paired, PairedData, PairedTrial};
 use super::{LiveTrial, Next, StudyKind, TrialData};
-use crate::friction::{ModelParams, NakanoParams};
+use super::magnitude::{Stimulus, stimulus_model};
+use crate::friction::ModelParams;
 use crate::protocol::check::Checks;
 use crate::protocol::engine::{Action, Input, Status, TrialRecord, TrialSource};
 use crate::protocol::load::Walk;
@@ -73,21 +74,13 @@ pub struct Track {
     delta_mu_s: f64,
 }
 
-/// `model` (a stick-slip one) with static coefficient `mu_s`.
-fn with_mu_s(model: &ModelParams, mu_s: f64) -> ModelParams {
+/// The coefficients of a stick-slip model.
+fn coefficients(model: &ModelParams) -> Option<Stimulus> {
     match model {
-        ModelParams::StickSlipTactile(p) => {
-            ModelParams::StickSlipTactile(NakanoParams { mu_s, ..*p })
-        }
-        ModelParams::StickSlipForce(p) => ModelParams::StickSlipForce(NakanoParams { mu_s, ..*p }),
-        other => other.clone(),
-    }
-}
-
-/// The static coefficient of a stick-slip model.
-fn reference_mu_s(model: &ModelParams) -> Option<f64> {
-    match model {
-        ModelParams::StickSlipTactile(p) | ModelParams::StickSlipForce(p) => Some(p.mu_s),
+        ModelParams::StickSlipTactile(p) | ModelParams::StickSlipForce(p) => Some(Stimulus {
+            mu_s: p.mu_s,
+            mu_k: p.mu_k,
+        }),
         _ => None,
     }
 }
@@ -125,7 +118,7 @@ impl StudyKind for Staircase {
     }
 
     fn check(d: &StaircaseDesign, c: &mut Checks) {
-        if reference_mu_s(&d.reference).is_none() {
+        if coefficients(&d.reference).is_none() {
             c.err("reference.model", "the reference needs a stick-slip model");
         }
         c.positive("start_delta", d.start_delta);
@@ -225,15 +218,18 @@ impl TrialSource for Source {
     fn trial(&self, index: usize, history: &[TrialRecord]) -> Option<PlannedTrial> {
         let d = &self.design;
         let (delta, reversals) = self.track(history);
-        let base = reference_mu_s(&d.reference)?;
+        let base = coefficients(&d.reference)?;
         if reversals >= d.reversals {
             return None;
         }
         let with = |id: &str, mu_s: f64| Condition {
             id: id.into(),
-            model: with_mu_s(&d.reference, mu_s),
+            model: stimulus_model(&d.reference, Stimulus { mu_s, ..base }),
         };
-        let (reference, comparison) = (with("reference", base), with("comparison", base + delta));
+        let (reference, comparison) = (
+            with("reference", base.mu_s),
+            with("comparison", base.mu_s + delta),
+        );
         let seed = (self.seed ^ index as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
         let (first, second) = if seed >> 63 == 0 {
             (reference, comparison)
