@@ -32,6 +32,7 @@ fn study(text: &str, root: &std::path::Path, jobs: usize) -> f64 {
             pace: None,
             streams: false,
             jobs,
+            population: None,
         },
         &|_| {},
     )

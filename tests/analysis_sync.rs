@@ -41,7 +41,33 @@ fn same(a: &Value, b: &Value, path: &str) -> Result<(), String> {
 }
 
 fn check(study: &str, participants: u32, seed: u64) {
+    check_against(
+        study,
+        participants,
+        seed,
+        None,
+        &format!("{study}/summary.json"),
+    );
     let root = env!("CARGO_MANIFEST_DIR");
+    assert!(std::path::Path::new(&format!("{root}/analysis/{study}/report.html")).is_file());
+}
+
+/// Replays `study` (with the population file `population`, under
+/// `analysis/`) and compares its summary with `analysis/<committed>`.
+fn check_against(
+    study: &str,
+    participants: u32,
+    seed: u64,
+    population: Option<&str>,
+    committed_path: &str,
+) {
+    let root = env!("CARGO_MANIFEST_DIR");
+    let population = population.map(|p| {
+        frictionlab::participant::population::read(std::path::Path::new(&format!(
+            "{root}/analysis/{p}"
+        )))
+        .unwrap()
+    });
     let text = std::fs::read_to_string(format!("{root}/protocols/{study}.json")).unwrap();
     let protocol = parse(&text).unwrap();
     let tmp = tempfile::tempdir().unwrap();
@@ -56,21 +82,21 @@ fn check(study: &str, participants: u32, seed: u64) {
             pace: None,
             streams: false,
             jobs: 2,
+            population: population.as_ref(),
         },
         &|_| {},
     )
     .unwrap();
     let fresh = analyze(&out).unwrap().summary;
     let committed: Value = serde_json::from_str(
-        &std::fs::read_to_string(format!("{root}/analysis/{study}/summary.json")).unwrap(),
+        &std::fs::read_to_string(format!("{root}/analysis/{committed_path}")).unwrap(),
     )
     .unwrap();
     if let Err(e) = same(&fresh, &committed, study) {
         panic!(
-            "analysis/{study}/summary.json is out of date ({e}); regenerate with: bash analysis/reproduce.sh"
+            "analysis/{committed_path} is out of date ({e}); regenerate with: bash analysis/reproduce.sh"
         );
     }
-    assert!(std::path::Path::new(&format!("{root}/analysis/{study}/report.html")).is_file());
 }
 
 #[test]
@@ -86,4 +112,50 @@ fn magnitude_estimation_reproduction_is_in_sync() {
 #[test]
 fn fitts_reproduction_is_in_sync() {
     check("fitts", 20, 2002);
+}
+
+#[test]
+fn robustness_replays_are_in_sync() {
+    check_against(
+        "paired-comparison",
+        60,
+        2000,
+        Some("robustness/hand-k150-b5/population.json"),
+        "robustness/hand-k150-b5/paired-comparison.json",
+    );
+    check_against(
+        "magnitude-estimation",
+        10,
+        2001,
+        Some("robustness/breakaway-weight-1/population.json"),
+        "robustness/breakaway-weight-1/magnitude-estimation.json",
+    );
+    check_against(
+        "fitts",
+        20,
+        2002,
+        Some("robustness/motor-noise-high/population.json"),
+        "robustness/motor-noise-high/fitts.json",
+    );
+}
+
+#[test]
+fn the_claims_table_is_generated_from_the_committed_summaries() {
+    let root = env!("CARGO_MANIFEST_DIR");
+    let text = std::fs::read_to_string(format!("{root}/protocols/fitts.json")).unwrap();
+    let ids = frictionlab::analysis::claims::narrowest_ids(&parse(&text).unwrap()).unwrap();
+    assert_eq!(ids.len(), 3, "seed 002 has three 2 mm levels");
+    let fresh = frictionlab::analysis::claims::claims(
+        std::path::Path::new(&format!("{root}/analysis")),
+        &ids,
+    )
+    .unwrap();
+    let committed = std::fs::read_to_string(format!("{root}/analysis/claims.md")).unwrap();
+    assert!(
+        fresh == committed,
+        "analysis/claims.md is out of date; regenerate with: bash analysis/reproduce.sh"
+    );
+    for verdict in ["| reproduced |", "| not reproduced |", "| not applicable |"] {
+        assert!(committed.contains(verdict), "no '{verdict}' row");
+    }
 }

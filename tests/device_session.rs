@@ -266,6 +266,7 @@ fn a_live_gui_session_runs_on_the_emulated_device() {
         pace: None,
         device: &device,
         streams: true,
+        population: None,
     };
     let mut live = LiveSession::start(&results, &req).unwrap();
     // Typed before the device has answered: kept until the log exists.
@@ -347,6 +348,7 @@ fn a_live_session_on_a_silent_device_writes_nothing() {
         pace: None,
         device: &DeviceChoice::Port(port.clone().into()),
         streams: true,
+        population: None,
     };
     let mut live = LiveSession::start(&results, &req).unwrap();
     assert_eq!(live.session(), 1);
@@ -521,6 +523,7 @@ fn a_device_lost_in_the_answer_phase_costs_that_trial_headless() {
             pace: None,
             device: &device,
             streams: true,
+            population: None,
         };
         run_device(&results, &req, 1.0, |_| Waiting, &mut |_, _| {})
     });
@@ -556,6 +559,7 @@ fn a_device_lost_in_the_answer_phase_costs_that_trial_in_the_window() {
         pace: None,
         device: &DeviceChoice::Port(dev.clone()),
         streams: true,
+        population: None,
     };
     let mut live = LiveSession::start(&results, &req).unwrap();
     let start = Instant::now();

@@ -275,10 +275,27 @@ fn regressions(
                 ))
             })
             .collect();
+        let of_means = linear_fit(&by_id);
+        let mut own: BTreeMap<&str, Vec<(f64, f64)>> = BTreeMap::new();
+        for t in tests.iter().filter(|t| &t.condition == c && t.taps >= 2.0) {
+            own.entry(&t.participant)
+                .or_default()
+                .push((t.id_bits, t.completion_s / (t.taps - 1.0)));
+        }
+        let participant_fits: Vec<Value> = own
+            .iter()
+            .map(|(p, pts)| {
+                let f = linear_fit(pts);
+                json!({"participant": p, "slope_s_per_bit": f.map(|f| f.slope), "r2": f.map(|f| f.r2)})
+            })
+            .collect();
         mt_by_id.push((c.clone(), by_id, fit));
         regression.push(json!({
             "condition": c, "intercept_s": fit.map(|f| f.intercept), "slope_s_per_bit": fit.map(|f| f.slope),
             "r2": fit.map(|f| f.r2), "n": pts.len(),
+            "means_r2": of_means.map(|f| f.r2), "means_slope_s_per_bit": of_means.map(|f| f.slope),
+            "means_intercept_s": of_means.map(|f| f.intercept),
+            "participant_fits": participant_fits,
         }));
         // The mean of each participant's sequences, then of participants.
         let mut by_participant: BTreeMap<&str, Vec<f64>> = BTreeMap::new();

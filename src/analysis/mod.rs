@@ -14,6 +14,7 @@
 //! non-positive magnitudes) is a [`Problem`] naming the file (with
 //! `line:column` when known) or folder.
 
+pub mod claims;
 pub mod fitts;
 pub mod magnitude;
 pub mod paired;

@@ -42,6 +42,26 @@ pub(super) fn validate_command(paths: &[PathBuf]) -> Result<(), Failure> {
     }
 }
 
+pub(super) fn claims_command(dir: &Path, fitts_protocol: &Path) -> Result<(), Failure> {
+    let (protocol, _) = load_protocol(fitts_protocol)?;
+    let Some(ids) = crate::analysis::claims::narrowest_ids(&protocol) else {
+        return Err(vec![UserError::new(
+            format!("{}: $.design.kind", fitts_protocol.display()),
+            "not a fitts protocol",
+        )]
+        .into());
+    };
+    let table = crate::analysis::claims::claims(dir, &ids).map_err(|e| Failure::from(vec![e]))?;
+    let path = dir.join("claims.md");
+    crate::render::write_atomically(&path, table.as_bytes()).map_err(|e| {
+        Failure::from(vec![UserError::new(
+            path.display().to_string(),
+            format!("cannot write: {e}"),
+        )])
+    })?;
+    emit(&format!("wrote {}\n", path.display()))
+}
+
 pub(super) fn analyze_command(dir: &Path, out: Option<&Path>) -> Result<(), Failure> {
     let analysis = crate::analysis::analyze(dir).map_err(|e| Failure::from(vec![e]))?;
     let out = out.map_or_else(|| dir.join("report"), Path::to_path_buf);
@@ -283,6 +303,7 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
         pace: Some(args.pace),
         device: &args.device,
         streams: true,
+        population: None,
     };
     let outcome = match &args.device {
         DeviceChoice::Simulated => {
@@ -336,6 +357,18 @@ pub(super) fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
     {
         errors.extend(e);
     }
+    let population = match args
+        .population
+        .as_deref()
+        .map(crate::participant::population::read)
+    {
+        Some(Err(e)) => {
+            errors.extend(e);
+            None
+        }
+        Some(Ok(p)) => Some(p),
+        None => None,
+    };
     let (protocol, bytes) = match load_protocol(&args.protocol) {
         Ok(ok) if errors.is_empty() => ok,
         Ok(_) => return Err(errors.into()),
@@ -371,6 +404,7 @@ pub(super) fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
             pace: args.pace,
             streams: args.streams,
             jobs,
+            population: population.as_ref(),
         },
         &|done| bar.set_position(done as u64),
     )?;

@@ -15,8 +15,8 @@ use crate::session::{DeviceChoice, SessionError};
 mod commands;
 
 use commands::{
-    analyze_command, emulator_command, gui_command, identify_command, models_json, ports_command,
-    render_command, run_command, simulate_command, validate_command,
+    analyze_command, claims_command, emulator_command, gui_command, identify_command, models_json,
+    ports_command, render_command, run_command, simulate_command, validate_command,
 };
 
 /// `--device`: `sim` (the simulated apparatus) or a serial port's path.
@@ -96,6 +96,17 @@ enum Command {
         /// Where to write the report (default: DIR/report).
         #[arg(long)]
         out: Option<PathBuf>,
+    },
+    /// Writes DIR/claims.md: every seed claim against the replays in the
+    /// analysis folder DIR (`analysis/`), with the robustness tables.
+    Claims {
+        /// The analysis folder (the main replays' summaries and
+        /// `robustness/`).
+        dir: PathBuf,
+        /// The Fitts protocol replayed (its narrowest targets are the
+        /// seed's hardest tasks).
+        #[arg(long)]
+        fitts_protocol: PathBuf,
     },
     /// Fits friction parameters to recorded motion and force (seed 002);
     /// prints JSON with a `protocol_model` block for a protocol.
@@ -215,6 +226,12 @@ struct SimulateArgs {
     /// `--pace`). The files are the same byte for byte for any number.
     #[arg(long)]
     jobs: Option<usize>,
+    /// The simulated participants' population: a JSON file with any of
+    /// its fields (hand impedance, motor and perceptual noise ranges, the
+    /// free constants; see ARCHITECTURE.md); the rest keep their defaults.
+    /// Kept in each log header.
+    #[arg(long)]
+    population: Option<PathBuf>,
 }
 
 #[derive(Debug, clap::Args)]
@@ -269,6 +286,10 @@ pub fn main() -> ExitCode {
         Command::Run(args) => run_command(&args),
         Command::Simulate(args) => simulate_command(&args),
         Command::Analyze { dir, out } => analyze_command(&dir, out.as_deref()),
+        Command::Claims {
+            dir,
+            fitts_protocol,
+        } => claims_command(&dir, &fitts_protocol),
         Command::Identify(args) => identify_command(&args),
         Command::Ports => ports_command(),
         Command::DeviceEmulator { path } => emulator_command(&path),

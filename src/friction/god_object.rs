@@ -27,8 +27,14 @@
 //!   magnitudes), in SI that is `A = 0.05 m/s` and `D = 40 1/s`. The seed's
 //!   `omega0` is not given: `kappa = omega0` per metre of finger travel is
 //!   chosen so the vibration is 100 Hz at the study's 0.03 m/s slide
-//!   (`kappa = 2 pi 100 / 0.03 = 20944 rad/m`). `sin(kappa v tau)/v` is taken
-//!   at its limit `kappa tau` as `v -> 0`, so `Q` is finite at rest. `Q` is
+//!   (`kappa = 2 pi 100 / 0.03 = 20944 rad/m`). The seed's `1/v` grows
+//!   without bound as the finger stops (at 1 mm/s, Q would be 30 times its
+//!   size at the study's speed and saturate the device). The seed's physics
+//!   is a vibration excited by sliding at about the study's speed, so the
+//!   reading here is `sin(kappa |v| tau) / max(|v|, v_min)` with
+//!   [`GodObjectParams::vibration_min_speed_m_s`] = 0.03 m/s (the seed's
+//!   slide speed): `|Q| <= A mu_s F_N / v_min` (5 N at mu_s 1, F_N 3 N) and
+//!   Q vanishes with the sliding, as a stopped finger excites nothing. `Q` is
 //!   signed with the slip direction, keeping the model direction-symmetric,
 //!   and the total force is clamped to the force limit.
 
@@ -160,6 +166,11 @@ pub struct GodObjectParams<L> {
     /// finger travel: frequency = kappa v / 2 pi. Default 20944 (100 Hz at
     /// 0.03 m/s).
     pub vibration_wavenumber_rad_m: f64,
+    /// Lower bound of the speed in Q's `1/v`, m/s. Default 0.03, the
+    /// seed's slide speed (where its reading of A gives its magnitudes):
+    /// `|Q| <= A mu_s F_N / v_min`, so Q no longer grows without bound as
+    /// the finger stops (module docs).
+    pub vibration_min_speed_m_s: f64,
 }
 
 impl<L: Default> Default for GodObjectParams<L> {
@@ -174,6 +185,7 @@ impl<L: Default> Default for GodObjectParams<L> {
             vibration_amplitude_m_s: 0.05,
             vibration_decay_per_s: 40.0,
             vibration_wavenumber_rad_m: 2.0 * std::f64::consts::PI * 100.0 / 0.03,
+            vibration_min_speed_m_s: 0.03,
         }
     }
 }
@@ -194,6 +206,7 @@ impl<L: StaticFrictionLaw> GodObjectParams<L> {
                 "vibration_wavenumber_rad_m",
                 self.vibration_wavenumber_rad_m,
             ),
+            positive("vibration_min_speed_m_s", self.vibration_min_speed_m_s),
         ]);
         errors.extend(
             self.static_friction
@@ -328,13 +341,9 @@ impl<L: StaticFrictionLaw> GodObject<L> {
         }
         self.vibration_time_s += dt;
         let kappa = self.p.vibration_wavenumber_rad_m;
-        let arg = kappa * finger_v * tau;
-        // sin(kappa v tau) / v, continued by its limit kappa tau at v = 0.
-        let wave = if arg.abs() < 1e-9 {
-            kappa * tau
-        } else {
-            arg.sin() / finger_v
-        };
+        // sin(kappa v tau) / v is even in v; the 1/v is bounded by v_min.
+        let speed = finger_v.abs();
+        let wave = (kappa * speed * tau).sin() / speed.max(self.p.vibration_min_speed_m_s);
         self.slip_dir * self.vibration_scale * envelope * wave
     }
 }

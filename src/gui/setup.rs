@@ -206,6 +206,7 @@ impl SetupPanel {
             pace: None,
             device: &self.device,
             streams: true,
+            population: None,
         };
         let dir = ResultsDir::new(self.out.trim());
         LiveSession::start(&dir, &req).map_err(|e| format!("error: {e}"))

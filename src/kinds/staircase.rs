@@ -360,6 +360,7 @@ mod tests {
             pace,
             device: &DeviceChoice::Simulated,
             streams: false,
+            population: None,
         };
         let planned = plan_session(&dir, &req, Observer::LABEL).unwrap();
         run_planned(&dir, planned, pace, |_| Observer, &mut |_, _| {}).unwrap();

@@ -46,6 +46,10 @@ pub struct Header {
     pub responder: String,
     /// Number of planned trials.
     pub planned_trials: usize,
+    /// The simulated participant's population when it is not the default
+    /// (`simulate --population`); absent: the default.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub population: Option<crate::participant::Population>,
 }
 
 /// One line of a session log.

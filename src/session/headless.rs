@@ -36,7 +36,11 @@ pub struct SessionOutcome {
 /// The simulated participant of a session's header (its traits from the plan seed and id).
 #[must_use]
 pub fn sim_participant(h: &Header) -> SimParticipant {
-    SimParticipant::new(h.plan_seed, &h.participant)
+    SimParticipant::new(
+        h.plan_seed,
+        &h.participant,
+        &h.population.unwrap_or_default(),
+    )
 }
 
 /// Keeps virtual time from running ahead of `pace` x the wall clock.
@@ -195,6 +199,8 @@ pub struct Simulation<'a> {
     pub pace: Option<f64>,
     /// Record each trial's device stream.
     pub streams: bool,
+    /// The participants' population (`None`: the default).
+    pub population: Option<&'a crate::participant::Population>,
     /// Sessions run at once, on as many threads (at least 1). Each session
     /// depends only on its participant's seed, so the files are the same
     /// byte for byte whatever the number.
@@ -238,6 +244,7 @@ pub fn simulate_participants(
                 pace: sim.pace,
                 device: &super::DeviceChoice::Simulated,
                 streams: sim.streams,
+                population: sim.population,
             };
             let mut reported = 0;
             let outcome = run_simulated(dir, &req, &mut |trial, _| {

@@ -60,6 +60,9 @@ pub struct SessionRequest<'a> {
     pub device: &'a DeviceChoice,
     /// Record each trial's device stream (`streams/`, see [`StreamRecorder`]).
     pub streams: bool,
+    /// A simulated participant's population other than the default (kept
+    /// in the log header, so a resumed session has the same participant).
+    pub population: Option<&'a crate::participant::Population>,
 }
 
 /// A session checked and planned; nothing written yet.
@@ -158,6 +161,7 @@ pub fn plan(
         device: req.device.label(),
         responder: responder.into(),
         planned_trials: source.planned().unwrap_or(0),
+        population: req.population.copied(),
     };
     Ok(Planned {
         source,

@@ -1,0 +1,170 @@
+//! The simulated population: the ranges participants' traits are drawn
+//! from, each with its source or marked free.
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+/// A closed range `[low, high]` a trait is drawn from, uniformly.
+pub type Range = [f64; 2];
+
+/// The simulated population: the ranges participants' traits are drawn
+/// from, and the constants no source gives (free; swept in
+/// `analysis/claims.md`). SI units.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct Population {
+    /// Hand (and arm) mass moving with the device, kg. [0.3, 1.0]: of the
+    /// order of the arm's effective mass at the hand (Hogan 1985); seed 000
+    /// takes 1 kg. Free within that order.
+    pub hand_mass_kg: Range,
+    /// Hand stiffness, N/m. [200, 800]: the range reported for a hand
+    /// holding a stylus or handle (e.g. Kuchenbecker, Park & Niemeyer 2003;
+    /// seed 000 uses 300). Free within it; swept.
+    pub hand_stiffness_n_m: Range,
+    /// Hand damping, N s/m. [10, 40] (same sources; seed 000 uses 20).
+    /// Free within it; swept.
+    pub hand_damping_n_s_m: Range,
+    /// Motor noise: endpoint SD of a submovement over its amplitude.
+    /// [0.04, 0.08]: the form is Meyer et al. 1988 / Harris & Wolpert 1998;
+    /// the value is free (swept).
+    pub motor_noise: Range,
+    /// Duration of every submovement, s. [0.2, 0.3] (Crossman & Goodeve:
+    /// constant-duration corrections; value free).
+    pub submovement_s: Range,
+    /// Visual feedback delay before a correction, s. [0.1, 0.2] (Keele &
+    /// Posner 1968; Carlton 1981).
+    pub feedback_s: Range,
+    /// Position perception noise (SD), m. [1e-4, 3e-4]: a tenth to a third
+    /// of a millimetre on the display (free; swept with the other
+    /// perceptual noises).
+    pub position_sd_m: Range,
+    /// Force Weber fraction. [0.07, 0.15] (Jones 1989; Pang, Tan & Durlach
+    /// 1991).
+    pub force_weber: Range,
+    /// Vibration amplitude Weber fraction. [0.15, 0.3] (Gescheider et al.
+    /// 1990: about 1.5 dB).
+    pub vibration_weber: Range,
+    /// Stevens exponent of magnitude estimates. [0.6, 1.1] (free: no source
+    /// gives one for friction).
+    pub stevens_exponent: Range,
+    /// SD of ln of a magnitude estimate. [0.1, 0.25] (free).
+    pub answer_noise: Range,
+    /// Break-away weight `w` of the friction percept (free, 0.5).
+    pub breakaway_weight: f64,
+    /// Force a full-scale vibrotactile drive feels like, N (free, 0.1; no
+    /// source gives it: results are reported as a function of it).
+    pub tactile_gain_n: f64,
+    /// Vibration floor of the paired percept, N (free, 0.05).
+    pub vibration_floor_n: f64,
+    /// Distance difference answered "no difference", JND (free, 1).
+    pub no_difference_jnd: f64,
+    /// Finger-on-desk friction coefficient of the reference phase (free,
+    /// 0.6).
+    pub desk_mu: f64,
+    /// Normal force on the desk, N (seed 000's 3 N).
+    pub desk_normal_n: f64,
+}
+
+impl Default for Population {
+    fn default() -> Self {
+        Population {
+            hand_mass_kg: [0.3, 1.0],
+            hand_stiffness_n_m: [200.0, 800.0],
+            hand_damping_n_s_m: [10.0, 40.0],
+            motor_noise: [0.04, 0.08],
+            submovement_s: [0.2, 0.3],
+            feedback_s: [0.1, 0.2],
+            position_sd_m: [1e-4, 3e-4],
+            force_weber: [0.07, 0.15],
+            vibration_weber: [0.15, 0.3],
+            stevens_exponent: [0.6, 1.1],
+            answer_noise: [0.1, 0.25],
+            breakaway_weight: 0.5,
+            tactile_gain_n: 0.1,
+            vibration_floor_n: 0.05,
+            no_difference_jnd: 1.0,
+            desk_mu: 0.6,
+            desk_normal_n: 3.0,
+        }
+    }
+}
+
+impl Population {
+    /// Every invalid field, as (field, what).
+    #[must_use]
+    pub fn problems(&self) -> Vec<(String, String)> {
+        let mut out = Vec::new();
+        let ranges = [
+            ("hand_mass_kg", self.hand_mass_kg),
+            ("hand_stiffness_n_m", self.hand_stiffness_n_m),
+            ("hand_damping_n_s_m", self.hand_damping_n_s_m),
+            ("motor_noise", self.motor_noise),
+            ("submovement_s", self.submovement_s),
+            ("feedback_s", self.feedback_s),
+            ("position_sd_m", self.position_sd_m),
+            ("force_weber", self.force_weber),
+            ("vibration_weber", self.vibration_weber),
+            ("stevens_exponent", self.stevens_exponent),
+            ("answer_noise", self.answer_noise),
+        ];
+        for (name, [lo, hi]) in ranges {
+            if !(lo.is_finite() && hi.is_finite() && lo >= 0.0 && lo <= hi) {
+                out.push((
+                    name.to_owned(),
+                    format!("must be [low, high] with 0 <= low <= high, got [{lo}, {hi}]"),
+                ));
+            }
+        }
+        for (name, lo, hi) in [
+            ("hand_mass_kg", self.hand_mass_kg[0], 0.0),
+            ("submovement_s", self.submovement_s[0], 0.0),
+        ] {
+            if lo <= hi {
+                out.push((name.to_owned(), "must be above 0".to_owned()));
+            }
+        }
+        let scalars = [
+            ("breakaway_weight", self.breakaway_weight, 1.0),
+            ("tactile_gain_n", self.tactile_gain_n, f64::INFINITY),
+            ("vibration_floor_n", self.vibration_floor_n, f64::INFINITY),
+            ("no_difference_jnd", self.no_difference_jnd, f64::INFINITY),
+            ("desk_mu", self.desk_mu, f64::INFINITY),
+            ("desk_normal_n", self.desk_normal_n, f64::INFINITY),
+        ];
+        for (name, v, max) in scalars {
+            if !(v.is_finite() && v >= 0.0 && v <= max) {
+                out.push((name.to_owned(), format!("must be in [0, {max}], got {v}")));
+            }
+        }
+        out
+    }
+}
+
+/// Reads a population file (JSON: any of [`Population`]'s fields; the rest
+/// keep their defaults), with every problem named by file and place.
+///
+/// # Errors
+/// Unreadable file, invalid JSON (line:col), unknown or mistyped field, or
+/// a value out of range (its JSON path).
+pub fn read(path: &std::path::Path) -> Result<Population, Vec<crate::problem::Problem>> {
+    use crate::problem::Problem;
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| vec![Problem::new(&file, format!("cannot read: {e}"))])?;
+    let population: Population = serde_json::from_str(&text).map_err(|e| {
+        vec![Problem::new(
+            format!("{file}: {}:{}", e.line(), e.column()),
+            e.to_string(),
+        )]
+    })?;
+    let problems: Vec<Problem> = population
+        .problems()
+        .into_iter()
+        .map(|(field, what)| Problem::new(format!("{file}: $.{field}"), what))
+        .collect();
+    if problems.is_empty() {
+        Ok(population)
+    } else {
+        Err(problems)
+    }
+}
