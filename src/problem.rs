@@ -36,3 +36,22 @@ impl Problem {
         self
     }
 }
+
+/// Reads a JSON file into `T`: an unreadable file, or invalid JSON or a
+/// mistyped field at its line:column, is a problem naming the file.
+///
+/// # Errors
+/// The problem.
+pub fn read_json_file<T: serde::de::DeserializeOwned>(
+    path: &std::path::Path,
+) -> Result<T, Problem> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Problem::new(&file, format!("cannot read: {e}")))?;
+    serde_json::from_str(&text).map_err(|e| {
+        Problem::new(
+            format!("{file}: {}:{}", e.line(), e.column()),
+            e.to_string(),
+        )
+    })
+}

@@ -30,15 +30,7 @@ const STUDIES: [&str; 3] = ["paired-comparison", "magnitude-estimation", "fitts"
 const R_CRIT_10: f64 = 0.632;
 
 fn read_json(path: &Path) -> Result<Value, Problem> {
-    let file = path.display().to_string();
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Problem::new(&file, format!("cannot read: {e}")))?;
-    serde_json::from_str(&text).map_err(|e| {
-        Problem::new(
-            format!("{file}: {}:{}", e.line(), e.column()),
-            e.to_string(),
-        )
-    })
+    crate::problem::read_json_file(path)
 }
 
 /// One study's summary with its file name for errors.

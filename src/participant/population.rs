@@ -149,14 +149,7 @@ impl Population {
 pub fn read(path: &std::path::Path) -> Result<Population, Vec<crate::problem::Problem>> {
     use crate::problem::Problem;
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| vec![Problem::new(&file, format!("cannot read: {e}"))])?;
-    let population: Population = serde_json::from_str(&text).map_err(|e| {
-        vec![Problem::new(
-            format!("{file}: {}:{}", e.line(), e.column()),
-            e.to_string(),
-        )]
-    })?;
+    let population: Population = crate::problem::read_json_file(path).map_err(|e| vec![e])?;
     let problems: Vec<Problem> = population
         .problems()
         .into_iter()
