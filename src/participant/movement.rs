@@ -8,9 +8,9 @@
 //!   device towards it through the device's inertia and friction. A
 //!   correction shifts the equilibrium point by the perceived error, from
 //!   where it was, so a device held back by friction keeps the pull it had.
-//!   There is no integral term: a device stuck by more stiction than the
-//!   spring's share of a correction stays stuck (a limitation: see
-//!   `analysis/README.md`).
+//!   There is no integral term: the pull on a device stuck by stiction grows
+//!   only as the participant sees the error and corrects again, one
+//!   feedback delay at a time.
 //! - Its endpoint scatters with signal-dependent noise: SD proportional to
 //!   the amplitude (Meyer et al. 1988, `S = K D / T`; Harris & Wolpert 1998,
 //!   noise proportional to the motor command). The proportion is the
@@ -27,7 +27,8 @@
 //!   ([`super::Traits::feedback_s`], Keele & Posner 1968; Carlton 1981), it
 //!   starts a corrective submovement towards the centre. After
 //!   [`MAX_CORRECTIONS`] corrections it clicks anyway (free constant: people
-//!   do not correct forever).
+//!   do not correct forever). A miss leaves the target lit; the participant
+//!   goes on correcting from where its equilibrium point is.
 //!
 //! So the number of submovements, and with it the movement time, grows with
 //! distance over width because the noise does: Fitts' law is not written
@@ -62,6 +63,8 @@ pub struct Tap {
     settling_since: Option<f64>,
     waiting: bool,
     corrections: u32,
+    /// Where the participant saw the cursor when it last judged it.
+    perceived: f64,
 }
 
 /// What the participant does after a tick.
@@ -87,12 +90,17 @@ impl Tap {
             settling_since: None,
             waiting: false,
             corrections: 0,
+            perceived: centres[0],
         }
     }
 
     /// A new screen after a click: `lit` now shows, `width` counts; the next
-    /// submovement goes from where the last one aimed. Returns whether the
-    /// target changed (a hit), which starts a new movement segment.
+    /// submovement goes from where the last one aimed. After a hit it aims at
+    /// the new target's centre; after a miss (the same target still lit) it
+    /// is one more correction by the error the participant saw when it
+    /// clicked, so the pull built against friction is kept rather than
+    /// dropped back to the centre. Returns whether the target changed (a
+    /// hit), which starts a new movement segment.
     pub fn next_target(
         &mut self,
         traits: &Traits,
@@ -107,7 +115,11 @@ impl Tap {
         self.lit = lit;
         self.width = width;
         self.corrections = 0;
-        let shift = self.centres[lit] - from;
+        let shift = if changed {
+            self.centres[lit] - from
+        } else {
+            self.centres[lit] - self.perceived
+        };
         self.submovement(traits, from, shift, now + CLICK_TO_MOVE_S, normal);
         changed
     }
@@ -165,6 +177,7 @@ impl Tap {
         }
         let centre = self.centres[self.lit];
         let perceived = x_m + normal(traits.position_sd_m);
+        self.perceived = perceived;
         if (perceived - centre).abs() <= self.width / 2.0 || self.corrections >= MAX_CORRECTIONS {
             self.waiting = true;
             return Step::Click(x_m);
@@ -179,5 +192,45 @@ impl Tap {
             normal,
         );
         Step::Wait
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::participant::population::Population;
+
+    /// Runs `decide` on a device held at `x_m` until the participant clicks.
+    fn click_when_held(tap: &mut Tap, traits: &Traits, x_m: f64, mut now: f64) -> f64 {
+        loop {
+            now += 0.001;
+            if let Step::Click(at) = tap.decide(traits, now, x_m, 0.0, |_| 0.0) {
+                assert!((at - x_m).abs() < 1e-12);
+                return now;
+            }
+            assert!(now < 100.0, "never clicked");
+        }
+    }
+
+    #[test]
+    fn a_miss_keeps_the_pull_built_against_a_stuck_device() {
+        let traits = Traits::draw(1, "p", &Population::default());
+        let (centre, width, held) = (0.1, 0.002, 0.095);
+        let mut tap = Tap::start([0.0, centre], width, 0.0);
+        assert!(tap.next_target(&traits, centre, width, 0.0, |_| 0.0));
+        // Stuck 5 mm short: each correction adds the seen error to the aim.
+        let now = click_when_held(&mut tap, &traits, held, 0.0);
+        let aim = |tap: &Tap| tap.drive(&traits, 1e3, 0).x_m;
+        let before = aim(&tap);
+        let expected = centre + f64::from(MAX_CORRECTIONS) * (centre - held);
+        assert!((before - expected).abs() < 1e-12, "{before} vs {expected}");
+        // The miss leaves the target lit: one more correction, not a reset.
+        assert!(!tap.next_target(&traits, centre, width, now, |_| 0.0));
+        let after = aim(&tap);
+        assert!((after - (before + centre - held)).abs() < 1e-12, "{after}");
+        // A hit on the other target aims at its centre.
+        let now = click_when_held(&mut tap, &traits, centre, now);
+        assert!(tap.next_target(&traits, 0.0, width, now, |_| 0.0));
+        assert!(aim(&tap).abs() < 1e-12);
     }
 }
