@@ -28,9 +28,7 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::friction::{
-    Friction, Input, ModelParams, Output, Phase, StepParams, collect, non_negative, positive,
-};
+use crate::friction::{Input, ModelParams, Output, Phase, StepParams, Stepper, checked};
 use crate::hand::{Hand, HandDrive};
 use crate::problem::Problem;
 
@@ -203,31 +201,31 @@ impl ScenarioParams {
     #[must_use]
     pub fn validate(&self) -> Vec<Problem> {
         match self {
-            Self::SpidarSlide(s) => collect([
-                positive("hand_mass_kg", s.hand_mass_kg),
-                non_negative("hand_stiffness_n_m", s.hand_stiffness_n_m),
-                non_negative("hand_damping_n_s_m", s.hand_damping_n_s_m),
-                non_negative("slide_speed_m_s", s.slide_speed_m_s),
-                non_negative("stick_s", s.stick_s),
-                non_negative("after_onset_s", s.after_onset_s),
-                non_negative("max_wait_s", s.max_wait_s),
-            ]),
-            Self::SinusoidalStroke(s) => collect([
-                non_negative("amplitude_m", s.amplitude_m),
-                positive("frequency_hz", s.frequency_hz),
-                non_negative("cycles", s.cycles),
-            ]),
-            Self::CoupledBlock(s) => collect([
-                non_negative("reach_m", s.reach_m),
-                positive("move_s", s.move_s),
-                non_negative("dwell_s", s.dwell_s),
-            ]),
-            Self::ServoSinusoid(s) => collect([
-                non_negative("amplitude_m", s.amplitude_m),
-                positive("frequency_hz", s.frequency_hz),
-                non_negative("cycles", s.cycles),
-                positive("slide_mass_kg", s.slide_mass_kg),
-            ]),
+            Self::SpidarSlide(s) => checked(|c| {
+                c.positive("hand_mass_kg", s.hand_mass_kg);
+                c.non_negative("hand_stiffness_n_m", s.hand_stiffness_n_m);
+                c.non_negative("hand_damping_n_s_m", s.hand_damping_n_s_m);
+                c.non_negative("slide_speed_m_s", s.slide_speed_m_s);
+                c.non_negative("stick_s", s.stick_s);
+                c.non_negative("after_onset_s", s.after_onset_s);
+                c.non_negative("max_wait_s", s.max_wait_s);
+            }),
+            Self::SinusoidalStroke(s) => checked(|c| {
+                c.non_negative("amplitude_m", s.amplitude_m);
+                c.positive("frequency_hz", s.frequency_hz);
+                c.non_negative("cycles", s.cycles);
+            }),
+            Self::CoupledBlock(s) => checked(|c| {
+                c.non_negative("reach_m", s.reach_m);
+                c.positive("move_s", s.move_s);
+                c.non_negative("dwell_s", s.dwell_s);
+            }),
+            Self::ServoSinusoid(s) => checked(|c| {
+                c.non_negative("amplitude_m", s.amplitude_m);
+                c.positive("frequency_hz", s.frequency_hz);
+                c.non_negative("cycles", s.cycles);
+                c.positive("slide_mass_kg", s.slide_mass_kg);
+            }),
         }
     }
 }
@@ -305,8 +303,8 @@ pub fn run(
     if !(settings.rate_hz.is_finite() && settings.rate_hz > 0.0) {
         return Err(ScenarioError::Rate(settings.rate_hz));
     }
-    let mut friction = Friction::new(model, settings.force_limit, 0.0)
-        .map_err(|mut e| ScenarioError::Model(e.swap_remove(0)))?;
+    let mut friction = Stepper::new(model, settings.float, settings.force_limit, 0.0)
+        .map_err(|e| ScenarioError::Model(crate::friction::problem(e)))?;
     let dt = 1.0 / settings.rate_hz;
     match scenario {
         ScenarioParams::SpidarSlide(s) => {
@@ -372,7 +370,7 @@ fn steps_for(duration: f64, dt: f64) -> Result<u64, ScenarioError> {
 
 /// A hand whose position and velocity are prescribed by `motion(t)`.
 fn kinematic(
-    friction: &mut Friction,
+    friction: &mut Stepper,
     dt: f64,
     steps: u64,
     motion: impl Fn(f64) -> (f64, f64),
@@ -428,7 +426,7 @@ pub fn min_jerk(from: f64, to: f64, duration: f64, t: f64) -> (f64, f64) {
 
 /// Seed 000's slide with a compliant hand; times shifted so that 0 is the
 /// first slip onset.
-fn spidar_slide(friction: &mut Friction, s: &SpidarSlide, dt: f64, max_steps: u64) -> Vec<Sample> {
+fn spidar_slide(friction: &mut Stepper, s: &SpidarSlide, dt: f64, max_steps: u64) -> Vec<Sample> {
     let mut out = Vec::new();
     let (mut x, mut v) = (0.0_f64, 0.0_f64);
     let mut hand = Hand::default();

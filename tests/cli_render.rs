@@ -274,3 +274,32 @@ fn models_lists_every_model_and_scenario_with_defaults() {
     assert_eq!(v["models"][4]["model"], "karnopp");
     assert_eq!(v["models"][4]["f_dynamic_n"], 2.0);
 }
+
+#[test]
+fn render_in_f32_runs_the_devices_arithmetic_and_refuses_other_widths() {
+    let dir = tempfile::tempdir().unwrap();
+    let read = |o: &Output| {
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        std::fs::read_to_string(dir.path().join("out.csv")).unwrap()
+    };
+    let wide = read(&render(
+        dir.path(),
+        "god-object-time-varying",
+        "spidar-slide",
+        &[],
+    ));
+    let o = render(
+        dir.path(),
+        "god-object-time-varying",
+        "spidar-slide",
+        &["--float", "f32"],
+    );
+    let narrow = read(&o);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("Hz in f32"));
+    // Same run, other arithmetic: same shape, not the same bits.
+    assert_eq!(wide.lines().count(), narrow.lines().count());
+    assert_ne!(wide, narrow);
+    let o = render(dir.path(), "karnopp", "coupled-block", &["--float", "f16"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("f16"));
+}

@@ -11,7 +11,7 @@
 mod common;
 
 use common::{drive, model, wiggle};
-use frictionlab::friction::{ForceLimit, Friction, Input, ModelParams, Phase};
+use frictionlab::friction::{ForceLimit, Friction, Input, ModelParams, Phase, Validate};
 use proptest::prelude::*;
 
 fn all_models() -> Vec<ModelParams> {
@@ -21,44 +21,45 @@ fn all_models() -> Vec<ModelParams> {
         .collect()
 }
 
-#[test]
-fn every_model_is_direction_symmetric() {
-    for params in all_models() {
-        let dt = 1.0 / params.loop_rate_hz();
-        let inputs = wiggle(3000, dt, 0.01);
-        let mirrored: Vec<Input> = inputs
-            .iter()
-            .map(|i| Input {
-                x_m: -i.x_m,
-                v_m_s: -i.v_m_s,
-            })
-            .collect();
-        let a = drive(&params, dt, &inputs);
-        let b = drive(&params, dt, &mirrored);
-        let mut moving = 0;
-        for (i, (p, q)) in a.iter().zip(&b).enumerate() {
-            assert!(
-                (p.force_n + q.force_n).abs() < 1e-9,
-                "{} step {i}: {} vs {}",
-                params.name(),
-                p.force_n,
-                q.force_n
-            );
-            assert!(
-                (p.vibration - q.vibration).abs() < 1e-12,
-                "{} step {i}",
-                params.name()
-            );
-            assert_eq!(
-                (p.phase, p.slip_onset),
-                (q.phase, q.slip_onset),
-                "{} step {i}",
-                params.name()
-            );
-            moving += usize::from(p.force_n != 0.0 || p.vibration != 0.0);
-        }
-        if params.name() != "none" {
-            assert!(moving > 100, "{} rendered something", params.name());
+in_both_floats! {
+    fn every_model_is_direction_symmetric<T>() {
+        for params in all_models() {
+            let dt = 1.0 / params.loop_rate_hz();
+            let inputs = wiggle(3000, dt, 0.01);
+            let mirrored: Vec<Input> = inputs
+                .iter()
+                .map(|i| Input {
+                    x_m: -i.x_m,
+                    v_m_s: -i.v_m_s,
+                })
+                .collect();
+            let a = drive::<T>(&params, dt, &inputs);
+            let b = drive::<T>(&params, dt, &mirrored);
+            let mut moving = 0;
+            for (i, (p, q)) in a.iter().zip(&b).enumerate() {
+                assert!(
+                    (p.force_n + q.force_n).abs() < 1e-9,
+                    "{} step {i}: {} vs {}",
+                    params.name(),
+                    p.force_n,
+                    q.force_n
+                );
+                assert!(
+                    (p.vibration - q.vibration).abs() < 1e-12,
+                    "{} step {i}",
+                    params.name()
+                );
+                assert_eq!(
+                    (p.phase, p.slip_onset),
+                    (q.phase, q.slip_onset),
+                    "{} step {i}",
+                    params.name()
+                );
+                moving += usize::from(p.force_n != 0.0 || p.vibration != 0.0);
+            }
+            if params.name() != "none" {
+                assert!(moving > 100, "{} rendered something", params.name());
+            }
         }
     }
 }
@@ -68,7 +69,7 @@ fn non_finite_input_renders_nothing_and_leaves_the_state_alone() {
     for params in all_models() {
         let dt = 1.0 / params.loop_rate_hz();
         let inputs = wiggle(500, dt, 0.01);
-        let clean = drive(&params, dt, &inputs);
+        let clean = drive::<f64>(&params, dt, &inputs);
         let mut f = Friction::new(&params, ForceLimit::default(), 0.0).unwrap();
         for (i, input) in inputs.iter().enumerate() {
             if i == 250 {

@@ -12,7 +12,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use frictionlab::friction::ModelParams;
+use frictionlab::friction::{ModelParams, Validate};
 use frictionlab::identify::{self, DEFAULT_DV_M_S, Record};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;

@@ -8,6 +8,7 @@ use super::{
     DeviceChoice, EXIT_FAILURE, Failure, GuiArgs, IdentifyArgs, RenderArgs, ResponderChoice,
     RunArgs, SimulateArgs, UserError, device_failure, emit, say,
 };
+use crate::friction::Validate;
 use crate::friction::{ForceLimit, ModelParams};
 use crate::protocol::{Protocol, load};
 use crate::scenario::{self, ScenarioError, ScenarioParams};
@@ -458,7 +459,10 @@ pub(super) fn render_command(args: &RenderArgs) -> Result<(), Failure> {
         )]
         .into());
     }
-    let plan = render_plan(&args.model, &args.scenario, &args.set)?;
+    let mut plan = render_plan(&args.model, &args.scenario, &args.set)?;
+    if args.float == "f32" {
+        plan.settings.float = crate::friction::Float::F32;
+    }
     let samples = scenario::run(&plan.model, &plan.scenario, plan.settings).map_err(|e| {
         vec![match e {
             ScenarioError::Model(p) => set_error("", p),
@@ -490,8 +494,12 @@ pub(super) fn render_command(args: &RenderArgs) -> Result<(), Failure> {
         samples.first().map_or(0.0, |s| s.t_s),
         samples.last().map_or(0.0, |s| s.t_s),
     );
+    let float = match plan.settings.float {
+        crate::friction::Float::F64 => "",
+        crate::friction::Float::F32 => " in f32",
+    };
     emit(&format!(
-        "{} / {}: {} samples at {} Hz, t = {t0:.3} .. {t1:.3} s, {onsets} stick-to-slip transitions -> {}\n",
+        "{} / {}: {} samples at {} Hz{float}, t = {t0:.3} .. {t1:.3} s, {onsets} stick-to-slip transitions -> {}\n",
         plan.model.name(),
         plan.scenario.name(),
         samples.len(),
@@ -556,7 +564,7 @@ fn render_plan(model: &str, scenario: &str, sets: &[String]) -> Result<RenderPla
     let limit = match ForceLimit::new(limit_n.unwrap_or(crate::friction::DEFAULT_FORCE_LIMIT_N)) {
         Ok(l) => Some(l),
         Err(e) => {
-            errors.push(set_error("", e));
+            errors.push(set_error("", crate::friction::problem(e)));
             None
         }
     };

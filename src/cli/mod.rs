@@ -255,6 +255,10 @@ struct RenderArgs {
     /// A figure of force (and vibration) over time, SVG.
     #[arg(long)]
     plot: Option<PathBuf>,
+    /// The float the model computes in: `f64` (the host) or `f32` (what a
+    /// device with a single-precision FPU runs, the same code).
+    #[arg(long, default_value = "f64", value_parser = ["f64", "f32"])]
+    float: String,
 }
 
 /// Runs the command line and returns the process exit code.

@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use super::{AnalysisEntry, Block, Design, Exploration, LiveTrial, Next, StudyKind};
+use crate::friction::Validate;
 use crate::analysis::{Section, report};
 use crate::friction::{ModelParams, NakanoParams};
 use crate::protocol::check::Checks;

@@ -12,6 +12,7 @@ use serde::de::DeserializeOwned;
 use serde_json::{Map, Value};
 
 use super::{BlockOrder, Condition, Design, Kind, Protocol, Randomization};
+use crate::friction::Validate;
 use crate::friction::{
     DahlParams, GodObjectParams, KarnoppParams, ModelParams, NakanoParams, ViscousParams,
 };

@@ -7,7 +7,7 @@
 )]
 #![allow(dead_code, reason = "each test binary uses a different subset")]
 
-use frictionlab::friction::{ForceLimit, Friction, Input, ModelParams, Output};
+use frictionlab::friction::{ForceLimit, Friction, Input, ModelParams, Output, Real};
 use frictionlab::scenario::{self, Sample, ScenarioParams};
 use frictionlab::settings;
 
@@ -17,11 +17,38 @@ pub fn model(name: &str, overrides: &[(&str, &str)]) -> ModelParams {
     settings::apply(&base, "model", name, overrides).expect("valid overrides")
 }
 
-/// Runs `model` through the default `scenario` at the model's loop rate.
-pub fn render(model: &ModelParams, scenario: &str) -> Vec<Sample> {
+/// Defines each test twice, with the friction core computing in `f64`
+/// (the host) and in `f32` (what the device runs): `name::f64`,
+/// `name::f32`. The body is generic over the float `T`.
+#[macro_export]
+macro_rules! in_both_floats {
+    ($($(#[doc = $doc:literal])* fn $name:ident<$t:ident>() $body:block)*) => {
+        $(
+            $(#[doc = $doc])*
+            mod $name {
+                #[allow(unused_imports)]
+                use super::*;
+                fn run<$t: frictionlab::friction::Real>() $body
+                #[test]
+                fn f64() {
+                    run::<f64>();
+                }
+                #[test]
+                fn f32() {
+                    run::<f32>();
+                }
+            }
+        )*
+    };
+}
+
+/// Runs `model` through the default `scenario` at the model's loop rate,
+/// the model computing in `T`.
+pub fn render<T: Real>(model: &ModelParams, scenario: &str) -> Vec<Sample> {
     let scenario = ScenarioParams::default_for(scenario).expect("known scenario");
     let settings = frictionlab::friction::StepParams {
         rate_hz: model.loop_rate_hz(),
+        float: T::FLOAT,
         ..Default::default()
     };
     scenario::run(model, &scenario, settings).expect("scenario runs")
@@ -48,15 +75,30 @@ pub fn peak_to_peak(samples: &[Sample], t0: f64, t1: f64, value: impl Fn(&Sample
     hi - lo
 }
 
-/// Steps a fresh model at `dt` through `inputs`.
-pub fn drive(params: &ModelParams, dt: f64, inputs: &[Input]) -> Vec<Output> {
-    let mut f = Friction::new(
+/// Steps a fresh model in `T` at `dt` through `inputs`.
+pub fn drive<T: Real>(params: &ModelParams, dt: f64, inputs: &[Input]) -> Vec<Output> {
+    let narrow = |i: &Input| Input {
+        x_m: T::of(i.x_m),
+        v_m_s: T::of(i.v_m_s),
+    };
+    let mut f = Friction::<T>::new(
         params,
         ForceLimit::default(),
-        inputs.first().map_or(0.0, |i| i.x_m),
+        inputs.first().map_or(T::ZERO, |i| T::of(i.x_m)),
     )
     .expect("valid params");
-    inputs.iter().map(|&i| f.step(dt, i)).collect()
+    inputs
+        .iter()
+        .map(|i| {
+            let o = f.step(T::of(dt), narrow(i));
+            Output {
+                force_n: o.force_n.to_f64(),
+                vibration: o.vibration.to_f64(),
+                phase: o.phase,
+                slip_onset: o.slip_onset,
+            }
+        })
+        .collect()
 }
 
 /// A smooth back-and-forth motion with rests: `n` samples at `dt`, amplitude

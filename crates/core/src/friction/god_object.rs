@@ -37,12 +37,19 @@
 //!   Q vanishes with the sliding, as a stopped finger excites nothing. `Q` is
 //!   signed with the slip direction, keeping the model direction-symmetric,
 //!   and the total force is clamped to the force limit.
+//! - Cheap per step, for a microcontroller: the envelope `exp(-D tau)` is
+//!   one multiplication per step by `exp(-D dt)` (computed when `dt`
+//!   changes); `sin(kappa |v| tau)` stays a call, as its frequency follows
+//!   the finger's speed.
 
-use schemars::JsonSchema;
+use core::marker::PhantomData;
+
+#[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
-use super::{ForceLimit, Input, Output, Phase, collect, exceeds, non_negative, positive, sign};
-use crate::problem::Problem;
+use super::{ForceLimit, Input, Output, Phase};
+use crate::check::Checker;
+use crate::real::Real;
 
 /// How the static coefficient behaves during a stick phase.
 pub trait StaticFrictionLaw: Copy {
@@ -50,13 +57,40 @@ pub trait StaticFrictionLaw: Copy {
     fn mu_s(&self, stick_time_s: f64) -> f64;
     /// Dynamic (sliding) coefficient.
     fn mu_d(&self) -> f64;
-    /// Every invalid field.
-    fn validate(&self) -> Vec<Problem>;
+    /// The law in the float `T`, ready to evaluate per step.
+    fn coefficients<T: Real>(&self) -> Coefficients<T>;
+    /// Reports every invalid field.
+    fn check(&self, c: &mut Checker<'_>);
+}
+
+/// A static friction law in the float `T`: `mu_s(t) = mu_d + b log10(c t +
+/// 1)`, or a constant `mu_s` when `c` is 0.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Coefficients<T> {
+    mu_d: T,
+    /// The constant static coefficient (used when `c` is 0).
+    mu_s: T,
+    b: T,
+    c: T,
+}
+
+impl<T: Real> Coefficients<T> {
+    /// The static coefficient after `stick_time_s` of stick.
+    #[must_use]
+    pub fn mu_s(&self, stick_time_s: T) -> T {
+        if self.c == T::ZERO {
+            self.mu_s
+        } else {
+            self.mu_d + self.b * (self.c * stick_time_s + T::ONE).log10()
+        }
+    }
 }
 
 /// Constant coefficients. Seed 000's comparison condition: mu_s 1.0, mu_d 0.6.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, default)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields, default))]
 pub struct ConstantStatic {
     /// Static coefficient (dimensionless, > `mu_d`). Default 1.0.
     pub mu_s: f64,
@@ -80,23 +114,28 @@ impl StaticFrictionLaw for ConstantStatic {
     fn mu_d(&self) -> f64 {
         self.mu_d
     }
-    fn validate(&self) -> Vec<Problem> {
-        let mut errors = collect([
-            non_negative("mu_s", self.mu_s),
-            non_negative("mu_d", self.mu_d),
-        ]);
-        if errors.is_empty() {
-            errors.extend(exceeds("mu_s", self.mu_s, "mu_d", self.mu_d, false).err());
+    fn coefficients<T: Real>(&self) -> Coefficients<T> {
+        Coefficients {
+            mu_d: T::of(self.mu_d),
+            mu_s: T::of(self.mu_s),
+            b: T::ZERO,
+            c: T::ZERO,
         }
-        errors
+    }
+    fn check(&self, c: &mut Checker<'_>) {
+        if c.non_negative("mu_s", self.mu_s) & c.non_negative("mu_d", self.mu_d) {
+            c.exceeds("mu_s", self.mu_s, "mu_d", self.mu_d, false);
+        }
     }
 }
 
 /// Seed 000's time-varying static coefficient (after Dieterich):
 /// `mu_s(t) = mu_d + b log10(c t + 1)`, `t` the time since the stick phase
 /// began. Defaults mu_d 0.6, B 0.3, C 500 1/s.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, default)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields, default))]
 pub struct TimeVaryingStatic {
     /// Dynamic coefficient, also the static one at the start of a stick
     /// (dimensionless, >= 0). Default 0.6.
@@ -119,29 +158,43 @@ impl Default for TimeVaryingStatic {
 
 impl StaticFrictionLaw for TimeVaryingStatic {
     fn mu_s(&self, stick_time_s: f64) -> f64 {
-        self.mu_d + self.b * (self.c_per_s * stick_time_s + 1.0).log10()
+        self.coefficients::<f64>().mu_s(stick_time_s)
     }
     fn mu_d(&self) -> f64 {
         self.mu_d
     }
-    fn validate(&self) -> Vec<Problem> {
-        collect([
-            non_negative("mu_d", self.mu_d),
-            positive("b", self.b),
-            positive("c_per_s", self.c_per_s),
-        ])
+    fn coefficients<T: Real>(&self) -> Coefficients<T> {
+        Coefficients {
+            mu_d: T::of(self.mu_d),
+            mu_s: T::of(self.mu_d),
+            b: T::of(self.b),
+            c: T::of(self.c_per_s),
+        }
+    }
+    fn check(&self, c: &mut Checker<'_>) {
+        c.non_negative("mu_d", self.mu_d);
+        c.positive("b", self.b);
+        c.positive("c_per_s", self.c_per_s);
     }
 }
 
 /// Parameters of the god-object model. Defaults: the coupling that reproduces
 /// seed 000's Fig. 4 claim (STUDIES 1a) and the seed's vibration constants.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(
-    deny_unknown_fields,
-    default,
-    bound(deserialize = "L: Deserialize<'de> + Default")
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[cfg_attr(
+    feature = "serde",
+    serde(
+        deny_unknown_fields,
+        default,
+        bound(deserialize = "L: Deserialize<'de> + Default")
+    )
 )]
-#[schemars(bound = "L: JsonSchema + Default + Serialize")]
+#[cfg_attr(
+    feature = "schema",
+    schemars(bound = "L: schemars::JsonSchema + Default + Serialize")
+)]
 pub struct GodObjectParams<L> {
     /// Proxy (god object) mass m, kg. Default 0.02.
     pub proxy_mass_kg: f64,
@@ -184,77 +237,100 @@ impl<L: Default> Default for GodObjectParams<L> {
             restick_speed_m_s: 0.001,
             vibration_amplitude_m_s: 0.05,
             vibration_decay_per_s: 40.0,
-            vibration_wavenumber_rad_m: 2.0 * std::f64::consts::PI * 100.0 / 0.03,
+            vibration_wavenumber_rad_m: 2.0 * core::f64::consts::PI * 100.0 / 0.03,
             vibration_min_speed_m_s: 0.03,
         }
     }
 }
 
 impl<L: StaticFrictionLaw> GodObjectParams<L> {
-    /// Every invalid field.
-    #[must_use]
-    pub fn validate(&self) -> Vec<Problem> {
-        let mut errors = collect([
-            positive("proxy_mass_kg", self.proxy_mass_kg),
-            positive("coupling_stiffness_n_m", self.coupling_stiffness_n_m),
-            non_negative("coupling_damping_n_s_m", self.coupling_damping_n_s_m),
-            non_negative("normal_force_n", self.normal_force_n),
-            non_negative("restick_speed_m_s", self.restick_speed_m_s),
-            non_negative("vibration_amplitude_m_s", self.vibration_amplitude_m_s),
-            positive("vibration_decay_per_s", self.vibration_decay_per_s),
-            non_negative(
-                "vibration_wavenumber_rad_m",
-                self.vibration_wavenumber_rad_m,
-            ),
-            positive("vibration_min_speed_m_s", self.vibration_min_speed_m_s),
-        ]);
-        errors.extend(
-            self.static_friction
-                .validate()
-                .into_iter()
-                .map(|e| e.within("static_friction")),
+    /// Reports every invalid field.
+    pub fn check(&self, c: &mut Checker<'_>) {
+        c.positive("proxy_mass_kg", self.proxy_mass_kg);
+        c.positive("coupling_stiffness_n_m", self.coupling_stiffness_n_m);
+        c.non_negative("coupling_damping_n_s_m", self.coupling_damping_n_s_m);
+        c.non_negative("normal_force_n", self.normal_force_n);
+        c.non_negative("restick_speed_m_s", self.restick_speed_m_s);
+        c.non_negative("vibration_amplitude_m_s", self.vibration_amplitude_m_s);
+        c.positive("vibration_decay_per_s", self.vibration_decay_per_s);
+        c.non_negative(
+            "vibration_wavenumber_rad_m",
+            self.vibration_wavenumber_rad_m,
         );
-        errors
+        c.positive("vibration_min_speed_m_s", self.vibration_min_speed_m_s);
+        c.within("static_friction");
+        self.static_friction.check(c);
     }
 }
 
 /// Below this envelope factor the slip vibration is over.
 const VIBRATION_END: f64 = 1e-6;
 
-/// Running state of the god-object model.
+/// Running state of the god-object model, in the float `T`.
 #[derive(Debug, Clone)]
-pub struct GodObject<L> {
-    p: GodObjectParams<L>,
-    limit: ForceLimit,
+pub struct GodObject<L, T: Real = f64> {
+    law: Coefficients<T>,
+    /// Coupling stiffness k, damping b, proxy mass m, normal force F_N.
+    k: T,
+    b: T,
+    m: T,
+    normal: T,
+    restick_speed: T,
+    vibration_amplitude: T,
+    vibration_decay: T,
+    kappa: T,
+    vibration_min_speed: T,
+    vibration_end: T,
+    limit: ForceLimit<T>,
     /// Proxy position, m.
-    x0: f64,
+    x0: T,
     /// Proxy velocity, m/s.
-    v0: f64,
+    v0: T,
     phase: Phase,
     /// Direction of the current (or last) slip: +1 or -1.
-    slip_dir: f64,
+    slip_dir: T,
     /// Time since the current stick phase began, s.
-    stick_time_s: f64,
+    stick_time_s: T,
     /// `A mu_s(t0) F_N` of the running vibration, N m/s; 0 when none runs.
-    vibration_scale: f64,
+    vibration_scale: T,
     /// Time since the last stick-to-slip transition, s.
-    vibration_time_s: f64,
+    vibration_time_s: T,
+    /// `exp(-D tau)` of the running vibration.
+    envelope: T,
+    /// The `dt` that `envelope_step` was computed for, and `exp(-D dt)`.
+    envelope_dt: T,
+    envelope_step: T,
+    law_type: PhantomData<L>,
 }
 
-impl<L: StaticFrictionLaw> GodObject<L> {
+impl<L: StaticFrictionLaw, T: Real> GodObject<L, T> {
     /// A stuck proxy at the finger's position `x_m` (relaxed coupling).
     #[must_use]
-    pub fn new(p: GodObjectParams<L>, limit: ForceLimit, x_m: f64) -> Self {
+    pub fn new(p: GodObjectParams<L>, limit: ForceLimit<T>, x_m: T) -> Self {
         GodObject {
-            p,
+            law: p.static_friction.coefficients(),
+            k: T::of(p.coupling_stiffness_n_m),
+            b: T::of(p.coupling_damping_n_s_m),
+            m: T::of(p.proxy_mass_kg),
+            normal: T::of(p.normal_force_n),
+            restick_speed: T::of(p.restick_speed_m_s),
+            vibration_amplitude: T::of(p.vibration_amplitude_m_s),
+            vibration_decay: T::of(p.vibration_decay_per_s),
+            kappa: T::of(p.vibration_wavenumber_rad_m),
+            vibration_min_speed: T::of(p.vibration_min_speed_m_s),
+            vibration_end: T::of(VIBRATION_END),
             limit,
             x0: x_m,
-            v0: 0.0,
+            v0: T::ZERO,
             phase: Phase::Stick,
-            slip_dir: 1.0,
-            stick_time_s: 0.0,
-            vibration_scale: 0.0,
-            vibration_time_s: 0.0,
+            slip_dir: T::ONE,
+            stick_time_s: T::ZERO,
+            vibration_scale: T::ZERO,
+            vibration_time_s: T::ZERO,
+            envelope: T::ZERO,
+            envelope_dt: T::ZERO,
+            envelope_step: T::ONE,
+            law_type: PhantomData,
         }
     }
 
@@ -266,54 +342,49 @@ impl<L: StaticFrictionLaw> GodObject<L> {
 
     /// Proxy position, m.
     #[must_use]
-    pub fn proxy_position_m(&self) -> f64 {
+    pub fn proxy_position_m(&self) -> T {
         self.x0
     }
 
     /// Advances by `dt` to the finger state `input`.
-    pub fn step(&mut self, dt: f64, input: Input) -> Output {
-        let p = &self.p;
-        let law = p.static_friction;
-        let normal = p.normal_force_n;
-        let (k, b, m) = (
-            p.coupling_stiffness_n_m,
-            p.coupling_damping_n_s_m,
-            p.proxy_mass_kg,
-        );
-        let coupling = |x0: f64, v0: f64| k * (input.x_m - x0) + b * (input.v_m_s - v0);
+    pub fn step(&mut self, dt: T, input: Input<T>) -> Output<T> {
+        let (k, b, m, normal) = (self.k, self.b, self.m, self.normal);
+        let mu_d = self.law.mu_d;
+        let coupling = |x0: T, v0: T| k * (input.x_m - x0) + b * (input.v_m_s - v0);
         let mut slip_onset = false;
 
         if self.phase == Phase::Stick {
             self.stick_time_s += dt;
-            let mu_s = law.mu_s(self.stick_time_s);
-            let hold = coupling(self.x0, 0.0);
+            let mu_s = self.law.mu_s(self.stick_time_s);
+            let hold = coupling(self.x0, T::ZERO);
             if hold.abs() > mu_s * normal {
                 self.phase = Phase::Slip;
-                self.slip_dir = sign(hold);
+                self.slip_dir = hold.sign();
                 slip_onset = true;
-                self.vibration_scale = p.vibration_amplitude_m_s * mu_s * normal;
-                self.vibration_time_s = 0.0;
+                self.vibration_scale = self.vibration_amplitude * mu_s * normal;
+                self.vibration_time_s = T::ZERO;
+                self.envelope = T::ONE;
             }
         }
 
         if self.phase == Phase::Slip {
             let fc = coupling(self.x0, self.v0);
-            let dir = if self.v0 == 0.0 {
-                sign(fc)
+            let dir = if self.v0 == T::ZERO {
+                fc.sign()
             } else {
-                sign(self.v0)
+                self.v0.sign()
             };
-            let friction = -dir * law.mu_d() * normal;
+            let friction = -dir * mu_d * normal;
             let v_new = self.v0 + (fc + friction) / m * dt;
-            let stopped = v_new * self.slip_dir <= 0.0 || v_new.abs() < p.restick_speed_m_s;
-            if stopped && !slip_onset && coupling(self.x0, 0.0).abs() < law.mu_d() * normal {
+            let stopped = v_new * self.slip_dir <= T::ZERO || v_new.abs() < self.restick_speed;
+            if stopped && !slip_onset && coupling(self.x0, T::ZERO).abs() < mu_d * normal {
                 self.phase = Phase::Stick;
-                self.v0 = 0.0;
-                self.stick_time_s = 0.0;
+                self.v0 = T::ZERO;
+                self.stick_time_s = T::ZERO;
             } else {
                 self.v0 = v_new;
-                if v_new != 0.0 {
-                    self.slip_dir = sign(v_new);
+                if v_new != T::ZERO {
+                    self.slip_dir = v_new.sign();
                 }
                 self.x0 += v_new * dt;
             }
@@ -322,28 +393,32 @@ impl<L: StaticFrictionLaw> GodObject<L> {
         let q = self.vibration(dt, input.v_m_s);
         Output {
             force_n: self.limit.clamp(-coupling(self.x0, self.v0) + q),
-            vibration: 0.0,
+            vibration: T::ZERO,
             phase: self.phase,
             slip_onset,
         }
     }
 
     /// The slip vibration Q at the current time, then advances its clock.
-    fn vibration(&mut self, dt: f64, finger_v: f64) -> f64 {
-        if self.vibration_scale == 0.0 {
-            return 0.0;
+    fn vibration(&mut self, dt: T, finger_v: T) -> T {
+        if self.vibration_scale == T::ZERO {
+            return T::ZERO;
+        }
+        if self.envelope < self.vibration_end {
+            self.vibration_scale = T::ZERO;
+            return T::ZERO;
         }
         let tau = self.vibration_time_s;
-        let envelope = (-self.p.vibration_decay_per_s * tau).exp();
-        if envelope < VIBRATION_END {
-            self.vibration_scale = 0.0;
-            return 0.0;
-        }
+        let envelope = self.envelope;
         self.vibration_time_s += dt;
-        let kappa = self.p.vibration_wavenumber_rad_m;
+        if dt != self.envelope_dt {
+            self.envelope_dt = dt;
+            self.envelope_step = (-self.vibration_decay * dt).exp();
+        }
+        self.envelope *= self.envelope_step;
         // sin(kappa v tau) / v is even in v; the 1/v is bounded by v_min.
         let speed = finger_v.abs();
-        let wave = (kappa * speed * tau).sin() / speed.max(self.p.vibration_min_speed_m_s);
+        let wave = (self.kappa * speed * tau).sin() / speed.max(self.vibration_min_speed);
         self.slip_dir * self.vibration_scale * envelope * wave
     }
 }

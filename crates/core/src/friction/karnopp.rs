@@ -38,15 +38,18 @@
 //!   0.22 for the block on the coupling). The seed gives none of these but
 //!   the mass and the 2.0 N.
 
-use schemars::JsonSchema;
+#[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
-use super::{ForceLimit, Input, Output, Phase, collect, exceeds, non_negative, positive, sign};
-use crate::problem::Problem;
+use super::{ForceLimit, Input, Output, Phase};
+use crate::check::Checker;
+use crate::real::Real;
 
 /// Parameters of the modified Karnopp model and its virtual coupling.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, default)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields, default))]
 pub struct KarnoppParams {
     /// Virtual block mass M, kg. Default 1.0 (seed 002 Fig. 6).
     pub block_mass_kg: f64,
@@ -82,32 +85,25 @@ impl Default for KarnoppParams {
 }
 
 impl KarnoppParams {
-    /// Every invalid field.
-    #[must_use]
-    pub fn validate(&self) -> Vec<Problem> {
-        let mut errors = collect([
-            positive("block_mass_kg", self.block_mass_kg),
-            non_negative("coupling_stiffness_n_m", self.coupling_stiffness_n_m),
-            non_negative("coupling_damping_n_s_m", self.coupling_damping_n_s_m),
-            non_negative("f_static_n", self.f_static_n),
-            non_negative("f_dynamic_n", self.f_dynamic_n),
-            non_negative("viscous_n_s_m", self.viscous_n_s_m),
-            positive("presliding_stiffness_n_m", self.presliding_stiffness_n_m),
-            non_negative("zero_velocity_band_m_s", self.zero_velocity_band_m_s),
-        ]);
-        if errors.is_empty() {
-            errors.extend(
-                exceeds(
-                    "f_static_n",
-                    self.f_static_n,
-                    "f_dynamic_n",
-                    self.f_dynamic_n,
-                    true,
-                )
-                .err(),
+    /// Reports every invalid field.
+    pub fn check(&self, c: &mut Checker<'_>) {
+        let ok = c.positive("block_mass_kg", self.block_mass_kg)
+            & c.non_negative("coupling_stiffness_n_m", self.coupling_stiffness_n_m)
+            & c.non_negative("coupling_damping_n_s_m", self.coupling_damping_n_s_m)
+            & c.non_negative("f_static_n", self.f_static_n)
+            & c.non_negative("f_dynamic_n", self.f_dynamic_n)
+            & c.non_negative("viscous_n_s_m", self.viscous_n_s_m)
+            & c.positive("presliding_stiffness_n_m", self.presliding_stiffness_n_m)
+            & c.non_negative("zero_velocity_band_m_s", self.zero_velocity_band_m_s);
+        if ok {
+            c.exceeds(
+                "f_static_n",
+                self.f_static_n,
+                "f_dynamic_n",
+                self.f_dynamic_n,
+                true,
             );
         }
-        errors
     }
 
     /// The largest presliding stiffness Kp for which the stuck block is stable
@@ -120,34 +116,50 @@ impl KarnoppParams {
     }
 }
 
-/// Running state of the Karnopp model and its virtual block.
+/// Running state of the Karnopp model and its virtual block, in the float
+/// `T`.
 #[derive(Debug, Clone)]
-pub struct Karnopp {
-    p: KarnoppParams,
-    limit: ForceLimit,
+pub struct Karnopp<T: Real = f64> {
+    /// Block mass M, coupling Kc and Bc, F_static, F_dynamic, B, Kp, DV.
+    mass: T,
+    kc: T,
+    bc: T,
+    f_static: T,
+    f_dynamic: T,
+    viscous: T,
+    kp: T,
+    dv: T,
+    limit: ForceLimit<T>,
     /// Block position, m.
-    xb: f64,
+    xb: T,
     /// Block velocity, m/s.
-    vb: f64,
+    vb: T,
     phase: Phase,
     /// Presliding anchor, m.
-    x_stuck: f64,
+    x_stuck: T,
     /// Friction on the block at the last step, N.
-    f_old: f64,
+    f_old: T,
 }
 
-impl Karnopp {
+impl<T: Real> Karnopp<T> {
     /// A stuck block at rest at the device position `x_m`.
     #[must_use]
-    pub fn new(p: KarnoppParams, limit: ForceLimit, x_m: f64) -> Self {
+    pub fn new(p: KarnoppParams, limit: ForceLimit<T>, x_m: T) -> Self {
         Karnopp {
-            p,
+            mass: T::of(p.block_mass_kg),
+            kc: T::of(p.coupling_stiffness_n_m),
+            bc: T::of(p.coupling_damping_n_s_m),
+            f_static: T::of(p.f_static_n),
+            f_dynamic: T::of(p.f_dynamic_n),
+            viscous: T::of(p.viscous_n_s_m),
+            kp: T::of(p.presliding_stiffness_n_m),
+            dv: T::of(p.zero_velocity_band_m_s),
             limit,
             xb: x_m,
-            vb: 0.0,
+            vb: T::ZERO,
             phase: Phase::Stick,
             x_stuck: x_m,
-            f_old: 0.0,
+            f_old: T::ZERO,
         }
     }
 
@@ -159,58 +171,55 @@ impl Karnopp {
 
     /// Block position, m.
     #[must_use]
-    pub fn block_position_m(&self) -> f64 {
+    pub fn block_position_m(&self) -> T {
         self.xb
     }
 
     /// Block velocity, m/s.
     #[must_use]
-    pub fn block_velocity_m_s(&self) -> f64 {
+    pub fn block_velocity_m_s(&self) -> T {
         self.vb
     }
 
     /// Friction force on the block at the last step, N.
     #[must_use]
-    pub fn friction_n(&self) -> f64 {
+    pub fn friction_n(&self) -> T {
         self.f_old
     }
 
     /// Advances by `dt` to the device state `input`.
-    pub fn step(&mut self, dt: f64, input: Input) -> Output {
-        let p = &self.p;
+    pub fn step(&mut self, dt: T, input: Input<T>) -> Output<T> {
         let mut slip_onset = false;
         let f = match self.phase {
             Phase::Stick => {
-                let f = -p.presliding_stiffness_n_m * (self.xb - self.x_stuck);
-                if f.abs() > p.f_static_n {
+                let f = -self.kp * (self.xb - self.x_stuck);
+                if f.abs() > self.f_static {
                     self.phase = Phase::Slip;
                     slip_onset = true;
-                    -sign(self.xb - self.x_stuck) * p.f_dynamic_n - p.viscous_n_s_m * self.vb
+                    -(self.xb - self.x_stuck).sign() * self.f_dynamic - self.viscous * self.vb
                 } else {
                     f
                 }
             }
             Phase::Slip => {
-                if self.vb.abs() < p.zero_velocity_band_m_s {
+                if self.vb.abs() < self.dv {
                     self.phase = Phase::Stick;
-                    self.x_stuck =
-                        self.xb + sign(self.f_old) * p.f_static_n / p.presliding_stiffness_n_m;
+                    self.x_stuck = self.xb + self.f_old.sign() * self.f_static / self.kp;
                     // = -Kp (xb - x_stuck), without its rounding error, so
                     // stuck friction never exceeds F_static.
-                    sign(self.f_old) * p.f_static_n
+                    self.f_old.sign() * self.f_static
                 } else {
-                    -sign(self.vb) * p.f_dynamic_n - p.viscous_n_s_m * self.vb
+                    -self.vb.sign() * self.f_dynamic - self.viscous * self.vb
                 }
             }
         };
         self.f_old = f;
-        let coupling = p.coupling_stiffness_n_m * (input.x_m - self.xb)
-            + p.coupling_damping_n_s_m * (input.v_m_s - self.vb);
-        self.vb += (coupling + f) / p.block_mass_kg * dt;
+        let coupling = self.kc * (input.x_m - self.xb) + self.bc * (input.v_m_s - self.vb);
+        self.vb += (coupling + f) / self.mass * dt;
         self.xb += self.vb * dt;
         Output {
             force_n: self.limit.clamp(-coupling),
-            vibration: 0.0,
+            vibration: T::ZERO,
             phase: self.phase,
             slip_onset,
         }

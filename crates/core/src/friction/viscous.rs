@@ -5,15 +5,18 @@
 //! hand is exactly at rest and `slip` otherwise (viscous damping has no
 //! static phase of its own).
 
-use schemars::JsonSchema;
+#[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
-use super::{ForceLimit, Input, Output, Phase, collect, non_negative};
-use crate::problem::Problem;
+use super::{ForceLimit, Input, Output, Phase};
+use crate::check::Checker;
+use crate::real::Real;
 
 /// Parameters of the viscous model.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, default)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields, default))]
 pub struct ViscousParams {
     /// Damping b, N s/m. Default 35 (seed 002).
     pub damping_n_s_m: f64,
@@ -28,25 +31,24 @@ impl Default for ViscousParams {
 }
 
 impl ViscousParams {
-    /// Every invalid field.
-    #[must_use]
-    pub fn validate(&self) -> Vec<Problem> {
-        collect([non_negative("damping_n_s_m", self.damping_n_s_m)])
+    /// Reports every invalid field.
+    pub fn check(&self, c: &mut Checker<'_>) {
+        c.non_negative("damping_n_s_m", self.damping_n_s_m);
     }
 }
 
 /// Running state of the viscous model (only the reported phase).
 #[derive(Debug, Clone)]
-pub struct Viscous {
-    damping_n_s_m: f64,
-    limit: ForceLimit,
+pub struct Viscous<T: Real = f64> {
+    damping_n_s_m: T,
+    limit: ForceLimit<T>,
     phase: Phase,
 }
 
-impl Viscous {
+impl<T: Real> Viscous<T> {
     /// Damping `damping_n_s_m`, output limited to `limit`.
     #[must_use]
-    pub fn new(damping_n_s_m: f64, limit: ForceLimit) -> Self {
+    pub fn new(damping_n_s_m: T, limit: ForceLimit<T>) -> Self {
         Viscous {
             damping_n_s_m,
             limit,
@@ -61,8 +63,8 @@ impl Viscous {
     }
 
     /// Renders `-b v`.
-    pub fn step(&mut self, _dt: f64, input: Input) -> Output {
-        let phase = if input.v_m_s == 0.0 {
+    pub fn step(&mut self, _dt: T, input: Input<T>) -> Output<T> {
+        let phase = if input.v_m_s == T::ZERO {
             Phase::Stick
         } else {
             Phase::Slip
@@ -71,7 +73,7 @@ impl Viscous {
         self.phase = phase;
         Output {
             force_n: self.limit.clamp(-self.damping_n_s_m * input.v_m_s),
-            vibration: 0.0,
+            vibration: T::ZERO,
             phase,
             slip_onset,
         }

@@ -26,6 +26,11 @@
 //!   `A_max = alpha k |y|` (seed eq. 9, the stored elastic force times
 //!   `alpha`) and decays with time constant `tau` (80 ms); the drive is
 //!   `envelope sin(2 pi 600 Hz t)`, clamped to `[-1, 1]`.
+//! - Cheap per step, for a microcontroller: the carrier is a unit phasor
+//!   turned by a per-step rotation (`cos`, `sin` of `2 pi f dt` computed
+//!   when `dt` changes) and pulled back to unit length each step by one
+//!   Newton step of `1/sqrt`, and the envelope decays by a per-step factor
+//!   `exp(-dt / tau)`: no `exp` or `sin` call per step.
 //!
 //! # Parameters the seed leaves open
 //! The seed's Fig. 5 gives `m = 0.00016 kg, k = 10 N/m, mu_s = 1.0,
@@ -46,16 +51,19 @@
 //! `force_scale` (force display only) scales the model's millinewton
 //! friction to the device: default 62.5, so `mu_s W` renders as 1 N.
 
-use schemars::JsonSchema;
+#[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
-use super::{ForceLimit, Input, Output, Phase, collect, exceeds, non_negative, positive, sign};
-use crate::problem::Problem;
+use super::{ForceLimit, Input, Output, Phase};
+use crate::check::{Checker, Rule};
+use crate::real::Real;
 
 /// Parameters of Nakano's model and its burst. See the module docs for the
 /// choices behind the defaults.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, default)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields, default))]
 pub struct NakanoParams {
     /// Object mass m, kg. Default 0.00016 (seed Fig. 5).
     pub mass_kg: f64,
@@ -102,51 +110,44 @@ impl Default for NakanoParams {
 }
 
 impl NakanoParams {
-    /// Every invalid field.
-    #[must_use]
-    pub fn validate(&self) -> Vec<Problem> {
-        let mut errors = collect([
-            positive("mass_kg", self.mass_kg),
-            positive("stiffness_n_m", self.stiffness_n_m),
-            non_negative("damping_n_s_m", self.damping_n_s_m),
-            non_negative("normal_load_n", self.normal_load_n),
-            non_negative("mu_s", self.mu_s),
-            non_negative("mu_k", self.mu_k),
-            non_negative("alpha_per_n", self.alpha_per_n),
-            positive("carrier_hz", self.carrier_hz),
-            positive("envelope_time_constant_s", self.envelope_time_constant_s),
-            non_negative("force_scale", self.force_scale),
-            positive("max_substep_s", self.max_substep_s),
-        ]);
-        if errors.is_empty() {
-            errors.extend(exceeds("mu_s", self.mu_s, "mu_k", self.mu_k, false).err());
+    /// Reports every invalid field.
+    pub fn check(&self, c: &mut Checker<'_>) {
+        let ok = c.positive("mass_kg", self.mass_kg)
+            & c.positive("stiffness_n_m", self.stiffness_n_m)
+            & c.non_negative("damping_n_s_m", self.damping_n_s_m)
+            & c.non_negative("normal_load_n", self.normal_load_n)
+            & c.non_negative("mu_s", self.mu_s)
+            & c.non_negative("mu_k", self.mu_k)
+            & c.non_negative("alpha_per_n", self.alpha_per_n)
+            & c.positive("carrier_hz", self.carrier_hz)
+            & c.positive("envelope_time_constant_s", self.envelope_time_constant_s)
+            & c.non_negative("force_scale", self.force_scale)
+            & c.positive("max_substep_s", self.max_substep_s);
+        if !(ok && c.exceeds("mu_s", self.mu_s, "mu_k", self.mu_k, false)) {
+            return;
         }
-        if errors.is_empty() {
-            let zeta = self.damping_ratio();
-            if zeta >= 1.0 {
-                errors.push(Problem::new(
-                    "damping_n_s_m",
-                    format!(
-                        "gives damping ratio {zeta:.3}; stick-slip needs c < 2 sqrt(m k) = {:.6}",
-                        2.0 * (self.mass_kg * self.stiffness_n_m).sqrt()
-                    ),
-                ));
-            }
+        let zeta = self.damping_ratio();
+        if zeta >= 1.0 {
+            let critical = 2.0 * libm::sqrt(self.mass_kg * self.stiffness_n_m);
+            c.report(
+                "damping_n_s_m",
+                self.damping_n_s_m,
+                Rule::Underdamped { zeta, critical },
+            );
         }
-        errors
     }
 
     /// Damping ratio zeta = c / (2 sqrt(m k)).
     #[must_use]
     pub fn damping_ratio(&self) -> f64 {
-        self.damping_n_s_m / (2.0 * (self.mass_kg * self.stiffness_n_m).sqrt())
+        self.damping_n_s_m / (2.0 * libm::sqrt(self.mass_kg * self.stiffness_n_m))
     }
 
     /// Undamped natural frequency sqrt(k/m) / 2 pi, Hz: the cap on the
     /// transition rate.
     #[must_use]
     pub fn natural_frequency_hz(&self) -> f64 {
-        (self.stiffness_n_m / self.mass_kg).sqrt() / std::f64::consts::TAU
+        libm::sqrt(self.stiffness_n_m / self.mass_kg) / core::f64::consts::TAU
     }
 }
 
@@ -159,54 +160,78 @@ pub enum NakanoDisplay {
     Force,
 }
 
-/// Running state of Nakano's model.
+/// Running state of Nakano's model, in the float `T`.
 #[derive(Debug, Clone)]
-pub struct Nakano {
-    p: NakanoParams,
+pub struct Nakano<T: Real = f64> {
+    /// Mass m, stiffness k, damping c.
+    m: T,
+    k: T,
+    c: T,
+    /// mu_s W and mu_k W, N.
+    static_limit: T,
+    kinetic: T,
+    alpha: T,
+    force_scale: T,
+    max_substep: T,
+    /// 2 pi f, rad/s, and the envelope time constant, s.
+    carrier_omega: T,
+    tau: T,
     display: NakanoDisplay,
-    limit: ForceLimit,
+    limit: ForceLimit<T>,
     /// Spring elongation, m.
-    y: f64,
+    y: T,
     /// Object velocity, m/s.
-    yv: f64,
+    yv: T,
     phase: Phase,
     /// Sign of `V - y'` during the current slip.
-    slip_rel: f64,
+    slip_rel: T,
     /// Friction on the object at the end of the last step, N.
-    friction: f64,
+    friction: T,
     /// Floor (finger) velocity at the last step, m/s.
-    floor_v: f64,
+    floor_v: T,
     /// Burst envelope, drive units.
-    envelope: f64,
+    envelope: T,
     /// Elastic force `k y` at the last stick-to-slip transition, N.
-    onset_elastic_n: f64,
-    /// Carrier phase, rad, in `[0, 2 pi)`.
-    carrier_phase: f64,
-    /// `dt` for which `decay` was computed.
-    decay_dt: f64,
-    /// `exp(-decay_dt / tau)`.
-    decay: f64,
+    onset_elastic_n: T,
+    /// The carrier as a unit phasor: `(cos, sin)` of its phase.
+    carrier: (T, T),
+    /// `dt` for which `decay` and `turn` were computed.
+    step_dt: T,
+    /// `exp(-step_dt / tau)`.
+    decay: T,
+    /// `(cos, sin)` of `2 pi f step_dt`.
+    turn: (T, T),
 }
 
-impl Nakano {
+impl<T: Real> Nakano<T> {
     /// A stuck, relaxed object on a floor at rest.
     #[must_use]
-    pub fn new(p: NakanoParams, display: NakanoDisplay, limit: ForceLimit) -> Self {
+    pub fn new(p: NakanoParams, display: NakanoDisplay, limit: ForceLimit<T>) -> Self {
         Nakano {
-            p,
+            m: T::of(p.mass_kg),
+            k: T::of(p.stiffness_n_m),
+            c: T::of(p.damping_n_s_m),
+            static_limit: T::of(p.mu_s) * T::of(p.normal_load_n),
+            kinetic: T::of(p.mu_k) * T::of(p.normal_load_n),
+            alpha: T::of(p.alpha_per_n),
+            force_scale: T::of(p.force_scale),
+            max_substep: T::of(p.max_substep_s),
+            carrier_omega: T::TAU * T::of(p.carrier_hz),
+            tau: T::of(p.envelope_time_constant_s),
             display,
             limit,
-            y: 0.0,
-            yv: 0.0,
+            y: T::ZERO,
+            yv: T::ZERO,
             phase: Phase::Stick,
-            slip_rel: 0.0,
-            friction: 0.0,
-            floor_v: 0.0,
-            envelope: 0.0,
-            onset_elastic_n: 0.0,
-            carrier_phase: 0.0,
-            decay_dt: 0.0,
-            decay: 1.0,
+            slip_rel: T::ZERO,
+            friction: T::ZERO,
+            floor_v: T::ZERO,
+            envelope: T::ZERO,
+            onset_elastic_n: T::ZERO,
+            carrier: (T::ONE, T::ZERO),
+            step_dt: T::ZERO,
+            decay: T::ONE,
+            turn: (T::ONE, T::ZERO),
         }
     }
 
@@ -219,31 +244,30 @@ impl Nakano {
     /// Burst envelope (drive units, before clamping), as it will apply at
     /// the next step.
     #[must_use]
-    pub fn envelope(&self) -> f64 {
+    pub fn envelope(&self) -> T {
         self.envelope
     }
 
     /// Elastic force `k y` stored at the last stick-to-slip transition, N.
     #[must_use]
-    pub fn elastic_force_at_onset_n(&self) -> f64 {
+    pub fn elastic_force_at_onset_n(&self) -> T {
         self.onset_elastic_n
     }
 
     /// Advances by `dt` to the finger state `input`.
-    pub fn step(&mut self, dt: f64, input: Input) -> Output {
-        let p = self.p;
-        let (m, k, c) = (p.mass_kg, p.stiffness_n_m, p.damping_n_s_m);
-        let static_limit = p.mu_s * p.normal_load_n;
-        let kinetic = p.mu_k * p.normal_load_n;
+    pub fn step(&mut self, dt: T, input: Input<T>) -> Output<T> {
+        let (m, k, c) = (self.m, self.k, self.c);
+        let static_limit = self.static_limit;
+        let kinetic = self.kinetic;
 
         // Sub-steps: the floor velocity ramps linearly over the step.
-        let n = (dt / p.max_substep_s).ceil().max(1.0);
+        let n = (dt / self.max_substep).ceil().max(T::ONE);
         let h = dt / n;
         let floor_a = (input.v_m_s - self.floor_v) / dt;
         let mut slip_onset = false;
-        let mut i = 0.0;
+        let mut i = T::ZERO;
         while i < n {
-            i += 1.0;
+            i += T::ONE;
             let floor_v = self.floor_v + floor_a * h * i;
             match self.phase {
                 Phase::Stick => {
@@ -253,9 +277,9 @@ impl Nakano {
                     if hold.abs() > static_limit {
                         self.phase = Phase::Slip;
                         slip_onset = true;
-                        self.slip_rel = sign(hold);
+                        self.slip_rel = hold.sign();
                         self.onset_elastic_n = k * self.y;
-                        self.envelope = p.alpha_per_n * self.onset_elastic_n.abs();
+                        self.envelope = self.alpha * self.onset_elastic_n.abs();
                         self.friction = self.slip_rel * kinetic;
                     } else {
                         self.friction = hold;
@@ -267,14 +291,14 @@ impl Nakano {
                     self.y += self.yv * h;
                     self.friction = friction;
                     let rel = floor_v - self.yv;
-                    if rel * self.slip_rel <= 0.0 {
+                    if rel * self.slip_rel <= T::ZERO {
                         let hold = m * floor_a + c * floor_v + k * self.y;
                         if hold.abs() <= static_limit {
                             self.phase = Phase::Stick;
                             self.yv = floor_v;
                             self.friction = hold;
                         } else {
-                            self.slip_rel = sign(rel);
+                            self.slip_rel = rel.sign();
                         }
                     }
                 }
@@ -284,32 +308,38 @@ impl Nakano {
 
         match self.display {
             NakanoDisplay::Tactile => {
-                let vibration = (self.envelope * self.carrier_phase.sin()).clamp(-1.0, 1.0);
+                let vibration = (self.envelope * self.carrier.1).clamp(-T::ONE, T::ONE);
                 self.advance_burst(dt);
                 Output {
-                    force_n: 0.0,
+                    force_n: T::ZERO,
                     vibration,
                     phase: self.phase,
                     slip_onset,
                 }
             }
             NakanoDisplay::Force => Output {
-                force_n: self.limit.clamp(-p.force_scale * self.friction),
-                vibration: 0.0,
+                force_n: self.limit.clamp(-self.force_scale * self.friction),
+                vibration: T::ZERO,
                 phase: self.phase,
                 slip_onset,
             },
         }
     }
 
-    /// Advances the carrier phase and the envelope decay by `dt`.
-    fn advance_burst(&mut self, dt: f64) {
-        if dt != self.decay_dt {
-            self.decay_dt = dt;
-            self.decay = (-dt / self.p.envelope_time_constant_s).exp();
+    /// Turns the carrier and decays the envelope by `dt`.
+    fn advance_burst(&mut self, dt: T) {
+        if dt != self.step_dt {
+            self.step_dt = dt;
+            self.decay = (-dt / self.tau).exp();
+            let angle = self.carrier_omega * dt;
+            self.turn = (angle.cos(), angle.sin());
         }
         self.envelope *= self.decay;
-        self.carrier_phase = (self.carrier_phase + std::f64::consts::TAU * self.p.carrier_hz * dt)
-            % std::f64::consts::TAU;
+        let ((c, s), (tc, ts)) = (self.carrier, self.turn);
+        let (c, s) = (c * tc - s * ts, s * tc + c * ts);
+        // One Newton step of 1/sqrt(c^2 + s^2) near 1 keeps the phasor on
+        // the unit circle in f32 over any number of steps.
+        let norm = (T::of(3.0) - (c * c + s * s)) / T::of(2.0);
+        self.carrier = (c * norm, s * norm);
     }
 }

@@ -1,0 +1,21 @@
+//! frictionlab's friction core: every friction model of the three studies,
+//! `no_std` and without an allocator, so the same code renders friction on
+//! the host and on a haptic device's microcontroller.
+//!
+//! - [`friction`]: the models, their parameters and checks, and
+//!   [`friction::Friction`], the one enum a loop steps.
+//! - [`real`]: the float they compute in, `f64` on the host or `f32` on a
+//!   Cortex-M4F, with `libm` maths on both, so a host re-render in `f32`
+//!   matches the device bit for bit.
+//! - [`check`]: parameter checks that report through a callback.
+//!
+//! Nothing here reads a clock, does I/O, allocates or keeps global state:
+//! time enters only as a step's `dt`.
+#![no_std]
+#![forbid(unsafe_code)]
+
+pub mod check;
+pub mod friction;
+pub mod real;
+
+pub use real::Real;
