@@ -380,20 +380,23 @@ impl SimParticipant {
 
     /// What the participant decides after this tick, if anything.
     pub fn decide(&mut self, now: f64, sample: &DeviceSample) -> Reaction {
+        // The exploring hand, every tick of a magnitude trial: in place.
+        if let Behaviour::Explore(e) = &mut self.behaviour {
+            e.felt.add(sample.force_n, sample.vibration, sample.v_m_s);
+            if now < e.stop || e.answered {
+                return Reaction::default();
+            }
+        }
         let mut behaviour = std::mem::replace(&mut self.behaviour, Behaviour::Idle);
         let reaction = match &mut behaviour {
             Behaviour::Idle => Reaction::default(),
             Behaviour::Explore(e) => {
-                e.felt.add(sample.force_n, sample.vibration, sample.v_m_s);
-                if now >= e.stop && !e.answered {
-                    e.answered = true;
-                    let answer = self.answer(&e.felt);
-                    Reaction {
-                        inputs: vec![Input::Answer(Answer::Magnitude(answer))],
-                        reset_to: None,
-                    }
-                } else {
-                    Reaction::default()
+                // Felt this tick already (above); time to answer.
+                e.answered = true;
+                let answer = self.answer(&e.felt);
+                Reaction {
+                    inputs: vec![Input::Answer(Answer::Magnitude(answer))],
+                    reset_to: None,
                 }
             }
             Behaviour::Slide(sl) => self.slide_tick(sl, now, sample.force_n),

@@ -69,6 +69,9 @@ pub trait Real:
     fn abs(self) -> Self;
     /// Neither infinite nor NaN.
     fn is_finite(self) -> bool;
+    /// A whole number of at least 0 as a count (saturating at `u32::MAX`;
+    /// NaN gives 0).
+    fn to_count(self) -> u32;
 
     /// The larger of the two (`other` if `self` is NaN).
     #[must_use]
@@ -139,6 +142,11 @@ impl Real for f64 {
     fn is_finite(self) -> bool {
         f64::is_finite(self)
     }
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    fn to_count(self) -> u32 {
+        // `as` saturates and maps NaN to 0.
+        self as u32
+    }
 }
 
 impl Real for f32 {
@@ -179,5 +187,10 @@ impl Real for f32 {
     }
     fn is_finite(self) -> bool {
         f32::is_finite(self)
+    }
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    fn to_count(self) -> u32 {
+        // `as` saturates and maps NaN to 0.
+        self as u32
     }
 }

@@ -270,10 +270,10 @@ const VIBRATION_END: f64 = 1e-6;
 #[derive(Debug, Clone)]
 pub struct GodObject<L, T: Real = f64> {
     law: Coefficients<T>,
-    /// Coupling stiffness k, damping b, proxy mass m, normal force F_N.
+    /// Coupling stiffness k, damping b, 1 / proxy mass m, normal force F_N.
     k: T,
     b: T,
-    m: T,
+    inv_m: T,
     normal: T,
     restick_speed: T,
     vibration_amplitude: T,
@@ -311,7 +311,7 @@ impl<L: StaticFrictionLaw, T: Real> GodObject<L, T> {
             law: p.static_friction.coefficients(),
             k: T::of(p.coupling_stiffness_n_m),
             b: T::of(p.coupling_damping_n_s_m),
-            m: T::of(p.proxy_mass_kg),
+            inv_m: T::of(1.0 / p.proxy_mass_kg),
             normal: T::of(p.normal_force_n),
             restick_speed: T::of(p.restick_speed_m_s),
             vibration_amplitude: T::of(p.vibration_amplitude_m_s),
@@ -348,15 +348,21 @@ impl<L: StaticFrictionLaw, T: Real> GodObject<L, T> {
 
     /// Advances by `dt` to the finger state `input`.
     pub fn step(&mut self, dt: T, input: Input<T>) -> Output<T> {
-        let (k, b, m, normal) = (self.k, self.b, self.m, self.normal);
+        let (k, b, inv_m, normal) = (self.k, self.b, self.inv_m, self.normal);
         let mu_d = self.law.mu_d;
         let coupling = |x0: T, v0: T| k * (input.x_m - x0) + b * (input.v_m_s - v0);
         let mut slip_onset = false;
 
         if self.phase == Phase::Stick {
             self.stick_time_s += dt;
-            let mu_s = self.law.mu_s(self.stick_time_s);
             let hold = coupling(self.x0, T::ZERO);
+            // mu_s(t) >= mu_d always, so below mu_d F_N nothing slips and
+            // the law (a log10 for the time-varying one) is not evaluated.
+            let mu_s = if hold.abs() > mu_d * normal {
+                self.law.mu_s(self.stick_time_s)
+            } else {
+                mu_d
+            };
             if hold.abs() > mu_s * normal {
                 self.phase = Phase::Slip;
                 self.slip_dir = hold.sign();
@@ -375,7 +381,7 @@ impl<L: StaticFrictionLaw, T: Real> GodObject<L, T> {
                 self.v0.sign()
             };
             let friction = -dir * mu_d * normal;
-            let v_new = self.v0 + (fc + friction) / m * dt;
+            let v_new = self.v0 + (fc + friction) * inv_m * dt;
             let stopped = v_new * self.slip_dir <= T::ZERO || v_new.abs() < self.restick_speed;
             if stopped && !slip_onset && coupling(self.x0, T::ZERO).abs() < mu_d * normal {
                 self.phase = Phase::Stick;

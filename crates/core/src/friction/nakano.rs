@@ -195,12 +195,18 @@ pub struct Nakano<T: Real = f64> {
     onset_elastic_n: T,
     /// The carrier as a unit phasor: `(cos, sin)` of its phase.
     carrier: (T, T),
-    /// `dt` for which `decay` and `turn` were computed.
+    /// `dt` for which the fields below were computed (they change only
+    /// with `dt`, so a fixed-rate loop computes them once).
     step_dt: T,
     /// `exp(-step_dt / tau)`.
     decay: T,
     /// `(cos, sin)` of `2 pi f step_dt`.
     turn: (T, T),
+    /// Sub-steps per step, the sub-step `h`, `h / m` and `1 / dt`.
+    substeps: u32,
+    h: T,
+    h_over_m: T,
+    inv_dt: T,
 }
 
 impl<T: Real> Nakano<T> {
@@ -232,7 +238,29 @@ impl<T: Real> Nakano<T> {
             step_dt: T::ZERO,
             decay: T::ONE,
             turn: (T::ONE, T::ZERO),
+            substeps: 1,
+            h: T::ZERO,
+            h_over_m: T::ZERO,
+            inv_dt: T::ZERO,
         }
+    }
+
+    /// Computes what depends only on `dt`, when `dt` changed.
+    fn prepare(&mut self, dt: T) {
+        if dt == self.step_dt {
+            return;
+        }
+        self.step_dt = dt;
+        self.decay = (-dt / self.tau).exp();
+        let angle = self.carrier_omega * dt;
+        self.turn = (angle.cos(), angle.sin());
+        let n = (dt / self.max_substep).ceil().max(T::ONE);
+        // A count of sub-steps: n is a whole number >= 1; a step longer
+        // than u32::MAX sub-steps saturates (no model runs such a step).
+        self.substeps = n.to_count();
+        self.h = dt / n;
+        self.h_over_m = self.h / self.m;
+        self.inv_dt = T::ONE / dt;
     }
 
     /// Current contact phase of the object.
@@ -261,19 +289,20 @@ impl<T: Real> Nakano<T> {
         let kinetic = self.kinetic;
 
         // Sub-steps: the floor velocity ramps linearly over the step.
-        let n = (dt / self.max_substep).ceil().max(T::ONE);
-        let h = dt / n;
-        let floor_a = (input.v_m_s - self.floor_v) / dt;
+        self.prepare(dt);
+        let (h, h_over_m) = (self.h, self.h_over_m);
+        let floor_a = (input.v_m_s - self.floor_v) * self.inv_dt;
+        let floor_dv = floor_a * h;
+        let hold_a = m * floor_a;
         let mut slip_onset = false;
-        let mut i = T::ZERO;
-        while i < n {
-            i += T::ONE;
-            let floor_v = self.floor_v + floor_a * h * i;
+        let mut floor_v = self.floor_v;
+        for _ in 0..self.substeps {
+            floor_v += floor_dv;
             match self.phase {
                 Phase::Stick => {
                     self.yv = floor_v;
                     self.y += floor_v * h;
-                    let hold = m * floor_a + c * floor_v + k * self.y;
+                    let hold = hold_a + c * floor_v + k * self.y;
                     if hold.abs() > static_limit {
                         self.phase = Phase::Slip;
                         slip_onset = true;
@@ -287,12 +316,12 @@ impl<T: Real> Nakano<T> {
                 }
                 Phase::Slip => {
                     let friction = self.slip_rel * kinetic;
-                    self.yv += (-c * self.yv - k * self.y + friction) / m * h;
+                    self.yv += (-c * self.yv - k * self.y + friction) * h_over_m;
                     self.y += self.yv * h;
                     self.friction = friction;
                     let rel = floor_v - self.yv;
                     if rel * self.slip_rel <= T::ZERO {
-                        let hold = m * floor_a + c * floor_v + k * self.y;
+                        let hold = hold_a + c * floor_v + k * self.y;
                         if hold.abs() <= static_limit {
                             self.phase = Phase::Stick;
                             self.yv = floor_v;
@@ -309,7 +338,7 @@ impl<T: Real> Nakano<T> {
         match self.display {
             NakanoDisplay::Tactile => {
                 let vibration = (self.envelope * self.carrier.1).clamp(-T::ONE, T::ONE);
-                self.advance_burst(dt);
+                self.advance_burst();
                 Output {
                     force_n: T::ZERO,
                     vibration,
@@ -326,14 +355,9 @@ impl<T: Real> Nakano<T> {
         }
     }
 
-    /// Turns the carrier and decays the envelope by `dt`.
-    fn advance_burst(&mut self, dt: T) {
-        if dt != self.step_dt {
-            self.step_dt = dt;
-            self.decay = (-dt / self.tau).exp();
-            let angle = self.carrier_omega * dt;
-            self.turn = (angle.cos(), angle.sin());
-        }
+    /// Turns the carrier and decays the envelope by one step (the `dt` of
+    /// [`Self::prepare`]).
+    fn advance_burst(&mut self) {
         self.envelope *= self.decay;
         let ((c, s), (tc, ts)) = (self.carrier, self.turn);
         let (c, s) = (c * tc - s * ts, s * tc + c * ts);
