@@ -8,6 +8,8 @@
 //!   Cortex-M4F, with `libm` maths on both, so a host re-render in `f32`
 //!   matches the device bit for bit.
 //! - [`check`]: parameter checks that report through a callback.
+//! - [`wire`]: the device wire protocol's messages, framing (COBS + CRC)
+//!   and sans-IO decoder, for the host and the firmware alike.
 //!
 //! Nothing here reads a clock, does I/O, allocates or keeps global state:
 //! time enters only as a step's `dt`.
@@ -17,5 +19,6 @@
 pub mod check;
 pub mod friction;
 pub mod real;
+pub mod wire;
 
 pub use real::Real;
