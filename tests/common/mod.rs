@@ -7,7 +7,7 @@
 )]
 #![allow(dead_code, reason = "each test binary uses a different subset")]
 
-use frictionlab::friction::{ForceLimit, Friction, Input, ModelParams, Output, Real};
+use frictionlab::friction::{ForceLimit, Input, ModelParams, Output, Real, Stepper};
 use frictionlab::scenario::{self, Sample, ScenarioParams};
 use frictionlab::settings;
 
@@ -77,28 +77,14 @@ pub fn peak_to_peak(samples: &[Sample], t0: f64, t1: f64, value: impl Fn(&Sample
 
 /// Steps a fresh model in `T` at `dt` through `inputs`.
 pub fn drive<T: Real>(params: &ModelParams, dt: f64, inputs: &[Input]) -> Vec<Output> {
-    let narrow = |i: &Input| Input {
-        x_m: T::of(i.x_m),
-        v_m_s: T::of(i.v_m_s),
-    };
-    let mut f = Friction::<T>::new(
+    let mut f = Stepper::new(
         params,
+        T::FLOAT,
         ForceLimit::default(),
-        inputs.first().map_or(T::ZERO, |i| T::of(i.x_m)),
+        inputs.first().map_or(0.0, |i| i.x_m),
     )
     .expect("valid params");
-    inputs
-        .iter()
-        .map(|i| {
-            let o = f.step(T::of(dt), narrow(i));
-            Output {
-                force_n: o.force_n.to_f64(),
-                vibration: o.vibration.to_f64(),
-                phase: o.phase,
-                slip_onset: o.slip_onset,
-            }
-        })
-        .collect()
+    inputs.iter().map(|&i| f.step(dt, i)).collect()
 }
 
 /// A smooth back-and-forth motion with rests: `n` samples at `dt`, amplitude

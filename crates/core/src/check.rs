@@ -7,8 +7,6 @@ use crate::real::Real;
 /// What is wrong with one parameter.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Rule {
-    /// It must be finite.
-    Finite,
     /// It must be finite and greater than 0.
     Positive,
     /// It must be finite and not negative.
@@ -53,10 +51,9 @@ impl core::fmt::Display for ParamProblem {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         let value = self.value;
         match self.rule {
-            Rule::Finite | Rule::Positive | Rule::NonNegative if !value.is_finite() => {
+            Rule::Positive | Rule::NonNegative if !value.is_finite() => {
                 write!(f, "must be finite, got {value}")
             }
-            Rule::Finite => Ok(()),
             Rule::Positive => write!(f, "must be greater than 0, got {value}"),
             Rule::NonNegative => write!(f, "must not be negative, got {value}"),
             Rule::Exceeds {
@@ -116,11 +113,6 @@ impl<'a> Checker<'a> {
             self.report(field, value.to_f64(), rule);
         }
         ok
-    }
-
-    /// `value` must be finite; returns whether it is.
-    pub fn finite<T: Real>(&mut self, field: &'static str, value: T) -> bool {
-        self.require(value.is_finite(), field, value, Rule::Finite)
     }
 
     /// `value` must be finite and greater than 0; returns whether it is.

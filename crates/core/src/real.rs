@@ -55,9 +55,6 @@ pub trait Real:
     /// Base-10 logarithm.
     #[must_use]
     fn log10(self) -> Self;
-    /// Square root.
-    #[must_use]
-    fn sqrt(self) -> Self;
     /// self^e.
     #[must_use]
     fn powf(self, e: Self) -> Self;
@@ -127,9 +124,6 @@ impl Real for f64 {
     fn log10(self) -> Self {
         libm::log10(self)
     }
-    fn sqrt(self) -> Self {
-        libm::sqrt(self)
-    }
     fn powf(self, e: Self) -> Self {
         libm::pow(self, e)
     }
@@ -172,9 +166,6 @@ impl Real for f32 {
     }
     fn log10(self) -> Self {
         libm::log10f(self)
-    }
-    fn sqrt(self) -> Self {
-        libm::sqrtf(self)
     }
     fn powf(self, e: Self) -> Self {
         libm::powf(self, e)

@@ -53,12 +53,12 @@ use crate::real::Real;
 
 /// How the static coefficient behaves during a stick phase.
 pub trait StaticFrictionLaw: Copy {
-    /// Static coefficient after `stick_time_s` seconds of stick.
-    fn mu_s(&self, stick_time_s: f64) -> f64;
-    /// Dynamic (sliding) coefficient.
-    fn mu_d(&self) -> f64;
     /// The law in the float `T`, ready to evaluate per step.
     fn coefficients<T: Real>(&self) -> Coefficients<T>;
+    /// Static coefficient after `stick_time_s` seconds of stick.
+    fn mu_s(&self, stick_time_s: f64) -> f64 {
+        self.coefficients::<f64>().mu_s(stick_time_s)
+    }
     /// Reports every invalid field.
     fn check(&self, c: &mut Checker<'_>);
 }
@@ -108,12 +108,6 @@ impl Default for ConstantStatic {
 }
 
 impl StaticFrictionLaw for ConstantStatic {
-    fn mu_s(&self, _stick_time_s: f64) -> f64 {
-        self.mu_s
-    }
-    fn mu_d(&self) -> f64 {
-        self.mu_d
-    }
     fn coefficients<T: Real>(&self) -> Coefficients<T> {
         Coefficients {
             mu_d: T::of(self.mu_d),
@@ -157,12 +151,6 @@ impl Default for TimeVaryingStatic {
 }
 
 impl StaticFrictionLaw for TimeVaryingStatic {
-    fn mu_s(&self, stick_time_s: f64) -> f64 {
-        self.coefficients::<f64>().mu_s(stick_time_s)
-    }
-    fn mu_d(&self) -> f64 {
-        self.mu_d
-    }
     fn coefficients<T: Real>(&self) -> Coefficients<T> {
         Coefficients {
             mu_d: T::of(self.mu_d),
@@ -280,7 +268,6 @@ pub struct GodObject<L, T: Real = f64> {
     vibration_decay: T,
     kappa: T,
     vibration_min_speed: T,
-    vibration_end: T,
     limit: ForceLimit<T>,
     /// Proxy position, m.
     x0: T,
@@ -318,7 +305,6 @@ impl<L: StaticFrictionLaw, T: Real> GodObject<L, T> {
             vibration_decay: T::of(p.vibration_decay_per_s),
             kappa: T::of(p.vibration_wavenumber_rad_m),
             vibration_min_speed: T::of(p.vibration_min_speed_m_s),
-            vibration_end: T::of(VIBRATION_END),
             limit,
             x0: x_m,
             v0: T::ZERO,
@@ -410,7 +396,7 @@ impl<L: StaticFrictionLaw, T: Real> GodObject<L, T> {
         if self.vibration_scale == T::ZERO {
             return T::ZERO;
         }
-        if self.envelope < self.vibration_end {
+        if self.envelope < T::of(VIBRATION_END) {
             self.vibration_scale = T::ZERO;
             return T::ZERO;
         }

@@ -173,17 +173,6 @@ pub enum Float {
     F32,
 }
 
-impl Float {
-    /// `f64` or `f32`.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Float::F64 => "f64",
-            Float::F32 => "f32",
-        }
-    }
-}
-
 /// A model stepped in either float, with `f64` at its edges: inputs are
 /// rounded to the model's float, outputs widened (exactly) back.
 #[derive(Debug, Clone)]
