@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use frictionlab::device::haptic::HapticLoop;
-use frictionlab::device::link::{Link, LinkState};
+use frictionlab::device::link::{Incoming, Link, LinkState};
 use frictionlab::device::transport::Transport;
 use frictionlab::device::wire::{Message, frame};
 
@@ -130,8 +130,8 @@ fn round_trip(c: &mut Criterion) {
             let mut acked = false;
             while !acked && sent.elapsed() < Duration::from_millis(50) {
                 let n = transport.read(&mut buf);
-                link.receive(start.elapsed().as_secs_f64(), &buf[..n], |s| {
-                    acked |= s.ack_seq == seq;
+                link.receive(start.elapsed().as_secs_f64(), &buf[..n], |i| {
+                    acked |= matches!(i, Incoming::Sample(s) if s.ack_seq == seq);
                 });
             }
             assert!(acked, "command {seq}: no acknowledging sample within 50 ms");

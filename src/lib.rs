@@ -20,6 +20,7 @@ pub mod participant;
 pub mod problem;
 pub mod protocol;
 pub mod render;
+pub mod rerender;
 pub mod results;
 pub mod scenario;
 pub mod session;

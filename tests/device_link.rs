@@ -15,7 +15,7 @@ use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use frictionlab::device::emulator::EmulatorCore;
-use frictionlab::device::link::{Link, LinkState, Sample};
+use frictionlab::device::link::{Incoming, Link, LinkState, Sample};
 use frictionlab::device::transport::Transport;
 use frictionlab::device::wire::{Decoder, MAX_FRAME, Message, encode, frame, status};
 
@@ -54,7 +54,11 @@ impl Host {
         while self.now() < until {
             let now = self.now();
             let n = self.transport.read(&mut buf);
-            self.link.receive(now, &buf[..n], |s| out.push((now, s)));
+            self.link.receive(now, &buf[..n], |i| {
+                if let Incoming::Sample(s) = i {
+                    out.push((now, s));
+                }
+            });
             if (self.commanding || self.link.state(now) != LinkState::Connected)
                 && let Some(m) = self.link.transmit(now, force, 0.0)
             {

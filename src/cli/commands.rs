@@ -193,17 +193,22 @@ pub(super) fn ports_command() -> Result<(), Failure> {
     emit(&lines)
 }
 
-pub(super) fn emulator_command(path: &Path) -> Result<(), Failure> {
+pub(super) fn emulator_command(path: &Path, on_board: bool) -> Result<(), Failure> {
     use crate::device::emulator::{self, Endpoint, OpenError};
     let place = path.display().to_string();
     let mut emulator = emulator::open(path).map_err(|e| match e {
         OpenError::NotAPort(_) => Failure::from(vec![UserError::new(&place, e.to_string())]),
         _ => device_failure(&place, e.to_string()),
     })?;
+    let mode = if on_board {
+        " (on-board rendering, wire protocol v2)"
+    } else {
+        ""
+    };
     emit(&match emulator.endpoint() {
-        Endpoint::Port => format!("device emulator on {place}\n"),
+        Endpoint::Port => format!("device emulator{mode} on {place}\n"),
         Endpoint::Pty { slave, replaced } => format!(
-            "device emulator on {place} (pseudo-terminal {}{})\n",
+            "device emulator{mode} on {place} (pseudo-terminal {}{})\n",
             slave.display(),
             replaced.as_ref().map_or_else(String::new, |old| format!(
                 "; replaced the link to {}, which was gone",
@@ -211,8 +216,13 @@ pub(super) fn emulator_command(path: &Path) -> Result<(), Failure> {
             ))
         ),
     })?;
+    let core = if on_board {
+        emulator::EmulatorCore::on_board()
+    } else {
+        emulator::EmulatorCore::new()
+    };
     emulator
-        .serve(|_| {})
+        .serve(core, |_| {})
         .map_err(|e| device_failure(&place, e.to_string()))
 }
 

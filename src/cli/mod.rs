@@ -122,6 +122,20 @@ enum Command {
         /// A serial port (or a link to one, left in place), or where to link
         /// a new pseudo-terminal.
         path: PathBuf,
+        /// Render friction on board (wire protocol v2): the host uploads
+        /// each trial's model, the emulator steps it itself in f32 at
+        /// 5 kHz and streams telemetry. Without it, a version 1 device
+        /// that applies the host's force commands.
+        #[arg(long)]
+        on_board: bool,
+    },
+    /// Renders a recorded trial stream again, its models taken from the
+    /// session log, and prints (JSON) the largest difference from the
+    /// recorded force and vibration: 0 for on-board trials, which the host
+    /// renders with the device's own code, float and maths.
+    Rerender {
+        /// A stream: `<results>/streams/..._trial-<k>_run-<r>_stream.csv`.
+        stream: PathBuf,
     },
     /// Prints a JSON Schema: of protocol files, or of session log lines.
     Schema {
@@ -296,7 +310,7 @@ pub fn main() -> ExitCode {
         } => claims_command(&dir, &fitts_protocol),
         Command::Identify(args) => identify_command(&args),
         Command::Ports => ports_command(),
-        Command::DeviceEmulator { path } => emulator_command(&path),
+        Command::DeviceEmulator { path, on_board } => emulator_command(&path, on_board),
         Command::Schema { which } => emit(&if which == "log" {
             crate::results::log_json_schema()
         } else {
@@ -304,6 +318,14 @@ pub fn main() -> ExitCode {
         }),
         Command::Render(args) => render_command(&args),
         Command::Models => emit(&format!("{}\n", models_json())),
+        Command::Rerender { stream } => crate::rerender::rerender_file(&stream)
+            .map_err(|e| Failure::from(vec![e]))
+            .and_then(|r| {
+                emit(&format!(
+                    "{}\n",
+                    serde_json::to_string_pretty(&r).unwrap_or_default()
+                ))
+            }),
     };
     finish(result)
 }

@@ -10,6 +10,13 @@
 //! has come from it for [`HOST_GONE_S`]. Before the first `Hello` and after
 //! a host has gone it sends nothing.
 //!
+//! With `--on-board` ([`EmulatorCore::on_board`]) it is a wire protocol v2
+//! device: to a host that says `Hello` in version 2 it states its on-board
+//! models (all of them, in `f32`, at [`ON_BOARD_RATE_HZ`]) and renders the
+//! models the host uploads itself, through the core's
+//! [`Board`](frictionlab_core::onboard::Board), streaming `Telemetry`. A
+//! host speaking version 1 gets the version 1 device.
+//!
 //! The shell: [`open`] finds the port for a path (an existing port, or a new
 //! pseudo-terminal linked there) and [`Emulator::serve`] (or [`serve`] on
 //! any port) runs the core at the force loop rate, dropping any frame the
@@ -22,12 +29,21 @@ use std::time::{Duration, Instant};
 
 use super::sim::{Apparatus, SimDevice};
 use super::wire::{Decoder, MAX_FRAME, Message, PROTOCOL_VERSION, encode, status};
+use crate::friction::{ForceLimit, Input};
+use frictionlab_core::onboard::Board;
 
 /// Force loop rate of the emulated firmware, Hz (seed 002's 1 kHz servo).
 pub const FORCE_RATE_HZ: u16 = 1000;
 
+/// Loop rate of the on-board mode, Hz: seed 001's stick-slip rate, which
+/// every model runs at on board.
+pub const ON_BOARD_RATE_HZ: u16 = 5000;
+
+/// How often the on-board mode sends its `LoopReport`, ticks (100 ms).
+const REPORT_EVERY_TICKS: u32 = ON_BOARD_RATE_HZ as u32 / 10;
+
 /// Watchdog: no valid command for this long zeroes the force, s.
-pub const WATCHDOG_S: f64 = 0.020;
+pub const WATCHDOG_S: f64 = frictionlab_core::onboard::WATCHDOG_S;
 
 /// A host that has sent nothing for this long is gone: the emulator stops
 /// streaming until the next `Hello`, s.
@@ -56,6 +72,13 @@ pub struct EmulatorCore {
     click: bool,
     x_m: f64,
     v_m_s: f64,
+    /// The on-board renderer (`--on-board`), and whether the host speaks
+    /// version 2 (so it is used).
+    board: Option<Board<f32>>,
+    v2: bool,
+    /// Replies beyond the first to a message (`OnBoard` after
+    /// `Capabilities`) and loop reports, sent with the next tick.
+    outbox: Vec<Message>,
 }
 
 impl Default for EmulatorCore {
@@ -83,7 +106,37 @@ impl EmulatorCore {
             click: false,
             x_m: 0.0,
             v_m_s: 0.0,
+            board: None,
+            v2: false,
+            outbox: Vec::new(),
         }
+    }
+
+    /// Firmware that also renders models on board (wire protocol v2), in
+    /// `f32` at [`ON_BOARD_RATE_HZ`], within the apparatus's maximum force.
+    #[must_use]
+    pub fn on_board() -> Self {
+        let mut core = Self::new();
+        #[expect(clippy::cast_possible_truncation, reason = "9.48 N")]
+        let limit = ForceLimit::new(core.p.max_force_n as f32).unwrap_or_default();
+        core.board = Some(Board::new(ON_BOARD_RATE_HZ, limit));
+        core
+    }
+
+    /// The loop rate in the mode the current host speaks, Hz.
+    #[must_use]
+    pub fn rate_hz(&self) -> u16 {
+        if self.board.is_some() {
+            ON_BOARD_RATE_HZ
+        } else {
+            FORCE_RATE_HZ
+        }
+    }
+
+    /// Messages to send besides [`EmulatorCore::receive`]'s reply and
+    /// [`EmulatorCore::tick`]'s sample.
+    pub fn take_outbox(&mut self) -> Vec<Message> {
+        std::mem::take(&mut self.outbox)
     }
 
     /// The capabilities this firmware states.
@@ -94,12 +147,16 @@ impl EmulatorCore {
     )]
     pub fn capabilities(&self) -> Message {
         Message::Capabilities {
-            version: PROTOCOL_VERSION,
+            version: if self.v2 { PROTOCOL_VERSION } else { 1 },
             dof: 1,
             max_force_n: self.p.max_force_n as f32,
             counts_per_m: (1.0 / self.p.encoder_m) as f32,
-            force_rate_hz: FORCE_RATE_HZ,
-            vibration_rate_hz: 0,
+            force_rate_hz: if self.v2 {
+                ON_BOARD_RATE_HZ
+            } else {
+                FORCE_RATE_HZ
+            },
+            vibration_rate_hz: if self.v2 { ON_BOARD_RATE_HZ } else { 0 },
         }
     }
 
@@ -116,10 +173,21 @@ impl EmulatorCore {
         if matches!(message, Message::Hello { .. }) || self.host_heard_s.is_some() {
             self.host_heard_s = Some(self.now_s);
         }
+        if self.v2
+            && let Some(board) = &mut self.board
+            && !matches!(message, Message::Hello { .. })
+        {
+            board.receive(&message);
+        }
         match message {
-            Message::Hello { .. } => {
+            Message::Hello { version } => {
                 self.force_n = 0.0;
                 self.last_command_s = None;
+                self.v2 = version >= 2 && self.board.is_some();
+                if let Some(board) = self.board.as_mut().filter(|_| self.v2) {
+                    board.reset();
+                    self.outbox.push(board.on_board());
+                }
                 Some(self.capabilities())
             }
             Message::Command { seq, force_n, .. } => {
@@ -163,9 +231,7 @@ impl EmulatorCore {
                 self.click |= click;
                 None
             }
-            Message::Heartbeat { .. } | Message::Capabilities { .. } | Message::Sample { .. } => {
-                None
-            }
+            _ => None,
         }
     }
 
@@ -178,6 +244,9 @@ impl EmulatorCore {
     /// Advances the firmware by `dt`; returns this tick's sample, or `None`
     /// while no host is there ([`EmulatorCore::has_host`]).
     pub fn tick(&mut self, dt: f64) -> Option<Message> {
+        if self.v2 && self.board.is_some() {
+            return self.tick_on_board(dt);
+        }
         self.now_s += dt;
         let watchdog = self
             .last_command_s
@@ -216,9 +285,58 @@ impl EmulatorCore {
         })
     }
 
+    /// One tick rendering on board: the board computes the force from what
+    /// the apparatus sensed; its telemetry is the tick's message.
+    fn tick_on_board(&mut self, dt: f64) -> Option<Message> {
+        let board = self.board.as_mut()?;
+        self.now_s += dt;
+        let hand = self.hand.force(&self.drive, self.x_m, self.v_m_s, dt);
+        let button = std::mem::take(&mut self.click);
+        let end_stop = self.device.at_end_stop();
+        let mut drive = None;
+        let sample = self.device.step_with(dt, hand, |sensed| {
+            #[expect(
+                clippy::cast_possible_truncation,
+                reason = "the device computes in f32"
+            )]
+            let input = Input {
+                x_m: sensed.x_m as f32,
+                v_m_s: sensed.v_m_s as f32,
+            };
+            let d = board.tick(input, button, end_stop);
+            drive = Some(d);
+            f64::from(d.force_n)
+        });
+        self.x_m = sample.x_m;
+        self.v_m_s = sample.v_m_s;
+        self.force_n = sample.force_n;
+        if let Message::LoopReport { ticks, .. } = board.loop_report()
+            && ticks % REPORT_EVERY_TICKS == 0
+        {
+            self.outbox.push(board.loop_report());
+        }
+        if !self.has_host() {
+            self.host_heard_s = None;
+            self.v2 = false;
+            self.outbox.clear();
+            return None;
+        }
+        drive.and_then(|d| d.telemetry)
+    }
+
+    /// Notes the loop's timing for the on-board `LoopReport`.
+    pub fn note_loop(&mut self, loop_us: u32, missed: bool) {
+        if let Some(board) = &mut self.board {
+            board.note_loop(loop_us, missed);
+        }
+    }
+
     /// The force being rendered now (after the watchdog), N.
     #[must_use]
     pub fn rendered_force_n(&self) -> f64 {
+        if self.v2 {
+            return self.force_n;
+        }
         if self
             .last_command_s
             .is_none_or(|t| self.now_s - t > WATCHDOG_S)
@@ -241,15 +359,15 @@ impl EmulatorCore {
 /// An I/O error on the port.
 pub fn serve(
     port: &mut (impl Read + Write),
+    core: EmulatorCore,
     mut on_tick: impl FnMut(&EmulatorCore),
 ) -> std::io::Result<()> {
-    let mut core = EmulatorCore::new();
+    let mut core = core;
     let mut decoder = Decoder::new();
-    let period = Duration::from_secs_f64(1.0 / f64::from(FORCE_RATE_HZ));
-    let dt = period.as_secs_f64();
-    let mut next = Instant::now() + period;
     let mut input = [0_u8; 512];
     let mut out = [0_u8; MAX_FRAME];
+    let start = Instant::now();
+    let mut ticks = 0_u64;
     loop {
         let n = match port.read(&mut input) {
             Ok(n) => n,
@@ -258,26 +376,51 @@ pub fn serve(
         };
         let mut replies = Vec::new();
         decoder.feed(&input[..n], |m| replies.extend(core.receive(m)));
-        replies.extend(core.tick(dt));
-        for m in &replies {
-            if let Ok(len) = encode(m, &mut out) {
-                match port.write_all(&out[..len]) {
-                    Err(e) if !is_busy(&e) => return Err(e),
-                    _ => {} // Sent, or dropped: nobody is reading.
+        // Every tick due by now (one a wake-up at 1 kHz, five on board).
+        let dt = 1.0 / f64::from(core.rate_hz());
+        let elapsed = start.elapsed().as_secs_f64();
+        #[expect(
+            clippy::cast_possible_truncation,
+            clippy::cast_sign_loss,
+            reason = "non-negative tick counts"
+        )]
+        let due = (elapsed / dt) as u64;
+        if due > ticks + 100 {
+            ticks = due - 1; // Fell far behind (machine stalled): do not burst.
+        }
+        while ticks < due.max(1) {
+            let began = Instant::now();
+            replies.extend(core.take_outbox());
+            replies.extend(core.tick(dt));
+            let late = began.duration_since(start).as_secs_f64() - ticks as f64 * dt;
+            ticks += 1;
+            #[expect(clippy::cast_possible_truncation, reason = "microseconds of one tick")]
+            core.note_loop(began.elapsed().as_micros() as u32, late > MISSED_AFTER_S);
+            for m in replies.drain(..) {
+                if let Ok(len) = encode(&m, &mut out) {
+                    match port.write_all(&out[..len]) {
+                        Err(e) if !is_busy(&e) => return Err(e),
+                        _ => {} // Sent, or dropped: nobody is reading.
+                    }
                 }
             }
+            on_tick(&core);
         }
-        on_tick(&core);
+        let next = start + Duration::from_secs_f64((ticks + 1) as f64 * dt);
         let now = Instant::now();
-        if next > now {
-            std::thread::sleep(next - now);
-        }
-        next += period;
-        if Instant::now() > next + period * 50 {
-            next = Instant::now() + period; // Fell far behind: do not burst.
-        }
+        let wake = next.max(now + Duration::from_micros(WAKE_US));
+        std::thread::sleep(wake - now);
     }
 }
+
+/// The emulator wakes at most this often, microseconds: on board it runs
+/// the ticks due since its last wake-up in a batch (a real device's timer
+/// interrupt runs each on time).
+const WAKE_US: u64 = 1000;
+
+/// A tick that runs this long after its deadline counts as missed, s: more
+/// than a batch late.
+const MISSED_AFTER_S: f64 = 0.002;
 
 /// Whether a port error only means "not now" (nothing to read, no room to
 /// write).
@@ -359,8 +502,12 @@ impl Emulator {
     ///
     /// # Errors
     /// An I/O error on the port.
-    pub fn serve(&mut self, on_tick: impl FnMut(&EmulatorCore)) -> std::io::Result<()> {
-        serve(&mut self.port, on_tick)
+    pub fn serve(
+        &mut self,
+        core: EmulatorCore,
+        on_tick: impl FnMut(&EmulatorCore),
+    ) -> std::io::Result<()> {
+        serve(&mut self.port, core, on_tick)
     }
 }
 
@@ -435,9 +582,7 @@ mod tests {
     use super::*;
     use crate::device::wire::frame;
 
-    const HELLO: Message = Message::Hello {
-        version: PROTOCOL_VERSION,
-    };
+    const HELLO: Message = Message::Hello { version: 1 };
 
     fn ticks(core: &mut EmulatorCore, n: usize) -> usize {
         (0..n).filter_map(|_| core.tick(0.001)).count()
@@ -552,10 +697,13 @@ mod tests {
         reads.extend((0..20).map(|_| Err(ErrorKind::TimedOut.into())));
         let mut port = FullPort { reads, writes: 0 };
         let mut served = 0;
-        let e = serve(&mut port, |core| served += usize::from(core.has_host())).unwrap_err();
+        let e = serve(&mut port, EmulatorCore::new(), |core| {
+            served += usize::from(core.has_host());
+        })
+        .unwrap_err();
         assert_eq!(e.to_string(), "unplugged");
-        assert_eq!(served, 21, "every tick ran with the host");
-        // Capabilities and 21 samples were tried, and dropped.
-        assert_eq!(port.writes, 22);
+        assert!(served >= 21, "every tick ran with the host: {served}");
+        // Capabilities and a sample per tick were tried, and dropped.
+        assert_eq!(port.writes, served + 1);
     }
 }

@@ -16,6 +16,17 @@
 //! buffers ([`rtrb`]). Nothing in the loop allocates: messages are encoded
 //! into stack buffers, models are plain values, and the period histogram is
 //! allocated before the loop starts.
+//!
+//! # On board (wire protocol v2)
+//! When the device states in its handshake that it renders a model on
+//! board at least at the model's rate, the loop does not step that model:
+//! it uploads it and selects it (`Upload`, `Select`; `Clear` for nothing),
+//! resending until the device's telemetry shows it in effect, and after a
+//! reconnect. Its ticks to the session are then the device's `Telemetry`,
+//! one per device tick, timed by the device's tick count, and it sends only
+//! `Heartbeat`s to feed the device's watchdog. A model the device does not
+//! render (or a version 1 device) is rendered by the loop itself as above,
+//! the device told to `Clear` its own.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -23,19 +34,34 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use super::link::{Link, LinkState};
+use super::link::{Incoming, Link, LinkState, OnBoard, Telemetry};
 use super::transport::Transport;
-use super::wire::{MAX_FRAME, Message, encode};
-use crate::friction::{Friction, Input, ModelParams, StepParams};
+use super::wire::{MAX_FRAME, Message, encode, status};
+use crate::friction::{Float, Input, ModelParams, StepParams};
+use frictionlab_core::render::Renderer;
 
-/// Crossfade time between models, s.
-pub const RAMP_S: f64 = 0.050;
+pub use frictionlab_core::render::RAMP_S;
+
+/// The render label of a device that renders nothing it was told to (it
+/// restarted): rendering nothing.
+pub const UNKNOWN_RENDER: u32 = u32::MAX;
+
+/// How long the loop waits for telemetry to show a selected model before it
+/// uploads it again, s.
+const RESEND_AFTER_S: f64 = 0.050;
 
 /// From the session to the loop.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ToLoop {
-    /// Render this model from now on (crossfaded), or nothing.
-    Model(Option<ModelParams>),
+    /// Render this model from now on (crossfaded), or nothing, as the
+    /// session's render number `render` (ticks report the render in
+    /// effect).
+    Model {
+        /// The session's number for this render.
+        render: u32,
+        /// The model, or nothing.
+        model: Option<ModelParams>,
+    },
     /// Forward this message to the device (the emulator's hand drive).
     Device(Message),
 }
@@ -57,6 +83,29 @@ pub struct Tick {
     pub button: bool,
     /// Link state.
     pub link: LinkState,
+    /// The session's render in effect this tick.
+    pub render: u32,
+    /// Whether a render took effect at this tick (its model starting at
+    /// rest at this tick's position).
+    pub selected: bool,
+    /// Who rendered this tick.
+    pub mode: Mode,
+}
+
+/// Who renders a tick's model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Mode {
+    /// The host's loop, commanding force over the link.
+    Host,
+    /// The device itself, at `rate_hz` in `float`.
+    OnBoard {
+        /// On-board loop rate, Hz.
+        rate_hz: u16,
+        /// The float it computes in.
+        float: Float,
+        /// Its force limit, N.
+        limit_n: f32,
+    },
 }
 
 /// Timing and link statistics of a loop run.
@@ -89,6 +138,18 @@ pub struct LoopStats {
     pub resyncs: u64,
     /// Whether SCHED_FIFO was granted.
     pub sched_fifo: bool,
+    /// Ticks the device rendered on board (telemetry received).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub on_board_ticks: Option<u64>,
+    /// Device ticks whose telemetry never arrived (gaps in its tick count).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub telemetry_gaps: Option<u64>,
+    /// The device's longest loop body, microseconds (its `LoopReport`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub device_longest_loop_us: Option<u32>,
+    /// Device ticks that missed their deadline (its `LoopReport`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub device_missed_ticks: Option<u32>,
 }
 
 /// A running haptic loop.
@@ -171,6 +232,107 @@ impl Drop for HapticLoop {
     }
 }
 
+/// What the loop knows of the device's on-board rendering.
+struct Board {
+    /// The session's render to render, and whether the device renders it.
+    wanted: (u32, Option<ModelParams>),
+    rendering: bool,
+    /// Labels sent lately and the renders they stand for.
+    labels: [(u8, u32); 4],
+    /// The render whose telemetry shows in effect on the device.
+    device_render: u32,
+    /// When the wanted render was last sent, if not yet in effect.
+    sent_s: Option<f64>,
+    /// Device tick and loop time of the first telemetry since connecting,
+    /// and the last tick seen.
+    anchor: Option<(u32, f64)>,
+    last_tick: Option<u32>,
+    last_now: f64,
+    ticks: u64,
+    gaps: u64,
+}
+
+impl Board {
+    fn new() -> Self {
+        Board {
+            wanted: (0, None),
+            rendering: false,
+            labels: [(0, UNKNOWN_RENDER); 4],
+            device_render: UNKNOWN_RENDER,
+            sent_s: None,
+            anchor: None,
+            last_tick: None,
+            last_now: 0.0,
+            ticks: 0,
+            gaps: 0,
+        }
+    }
+
+    /// Whether the device renders `model` on board.
+    fn renders(on_board: Option<OnBoard>, model: Option<&ModelParams>) -> bool {
+        on_board.is_some_and(|o| {
+            model.is_none_or(|m| {
+                let kind = m.flatten().kind;
+                kind > 0
+                    && o.models & (1 << (kind - 1)) != 0
+                    && f64::from(o.loop_rate_hz) >= m.loop_rate_hz()
+            })
+        })
+    }
+
+    /// Sends the wanted render to the device (upload and select, or clear)
+    /// through `send`.
+    #[expect(clippy::cast_possible_truncation, reason = "labels wrap by design")]
+    fn send(&mut self, now_s: f64, model: Option<&ModelParams>, mut send: impl FnMut(Message)) {
+        let render = self.wanted.0;
+        let label = render as u8;
+        self.labels.rotate_right(1);
+        self.labels[0] = (label, render);
+        match model {
+            Some(m) => frictionlab_core::onboard::upload(m, label, &mut send),
+            None => send(Message::Clear { render: label }),
+        }
+        self.sent_s = Some(now_s);
+    }
+
+    /// Notes one telemetry: the render in effect, gaps, and its time on the
+    /// loop's clock (device ticks from an anchor, never going back).
+    fn observe(&mut self, t: &Telemetry, now_s: f64, dt: f64) -> f64 {
+        if let Some(&(_, render)) = self.labels.iter().find(|(l, _)| *l == t.render) {
+            self.device_render = render;
+            if render == self.wanted.0 {
+                self.sent_s = None;
+            }
+        } else {
+            self.device_render = UNKNOWN_RENDER;
+        }
+        if let Some(last) = self.last_tick {
+            self.gaps += u64::from(t.tick.wrapping_sub(last).saturating_sub(1));
+        }
+        self.last_tick = Some(t.tick);
+        self.ticks += 1;
+        let (tick0, t0) = *self.anchor.get_or_insert((t.tick, now_s));
+        let mut at = t0 + f64::from(t.tick.wrapping_sub(tick0)) * dt;
+        if (at - now_s).abs() > 0.1 {
+            // Restarted or drifted: anchor afresh.
+            self.anchor = Some((t.tick, now_s));
+            at = now_s;
+        }
+        at = at.max(self.last_now);
+        self.last_now = at;
+        at
+    }
+
+    /// Forgets the device's state (a new connection).
+    fn disconnected(&mut self) {
+        self.labels = [(0, UNKNOWN_RENDER); 4];
+        self.device_render = UNKNOWN_RENDER;
+        self.anchor = None;
+        self.last_tick = None;
+        self.sent_s = None;
+    }
+}
+
 /// The loop body; returns its statistics when `stop` is set.
 #[expect(
     clippy::too_many_lines,
@@ -192,8 +354,12 @@ fn run(
     let alpha = step.velocity_alpha(dt);
     let mut histogram = vec![0_u32; BINS + 1];
     let (mut ticks, mut missed, mut max_late) = (0_u64, 0_u64, 0.0_f64);
-    let (mut current, mut previous): (Option<Friction>, Option<Friction>) = (None, None);
-    let mut ramp = 1.0_f64;
+    let mut renderer = Renderer::<f64>::new(limit, RAMP_S);
+    let mut host_render = 0_u32;
+    let mut host_selected = false;
+    let mut board = Board::new();
+    let mut was_connected = false;
+    let mut telemetry: Vec<Telemetry> = Vec::with_capacity(64);
     let (mut x, mut x_prev, mut v, mut button) = (0.0_f64, None::<f64>, 0.0_f64, false);
     let mut bytes = [0_u8; 1024];
     let mut frame = [0_u8; MAX_FRAME];
@@ -220,14 +386,46 @@ fn run(
         }
         ticks += 1;
         let now = woke.duration_since(start).as_secs_f64();
+        let n = transport.read(&mut bytes);
+        let mut write = |m: Message| {
+            if let Ok(len) = encode(&m, &mut frame) {
+                transport.write(&frame[..len]);
+            }
+        };
 
         // Device -> host.
-        let n = transport.read(&mut bytes);
-        link.receive(now, &bytes[..n], |s| {
-            x = s.x_m;
-            button = s.button;
+        telemetry.clear();
+        link.receive(now, &bytes[..n], |incoming| match incoming {
+            Incoming::Sample(s) => {
+                x = s.x_m;
+                button = s.button;
+            }
+            Incoming::Telemetry(t) => {
+                x = t.x_m;
+                button = t.flags & status::BUTTON != 0;
+                if telemetry.len() < telemetry.capacity() {
+                    telemetry.push(t);
+                }
+            }
         });
-        let connected = link.state(now) == LinkState::Connected;
+        let link_state = link.state(now);
+        let connected = link_state == LinkState::Connected;
+        let on_board = link.on_board();
+        let mut sent = false;
+        if connected && !was_connected {
+            // A new connection: the device has nothing of ours.
+            board.disconnected();
+            if on_board.is_some() {
+                write(Message::SetTelemetry { every: 1 });
+                board.rendering = Board::renders(on_board, board.wanted.1.as_ref());
+                if board.rendering {
+                    let wanted = board.wanted.1.clone();
+                    board.send(now, wanted.as_ref(), &mut write);
+                }
+                sent = true;
+            }
+        }
+        was_connected = connected;
         if connected {
             let raw = x_prev.map_or(0.0, |p| (x - p) / dt);
             v = alpha * v + (1.0 - alpha) * raw;
@@ -240,49 +438,101 @@ fn run(
         // Session -> loop.
         while let Ok(m) = inbox.pop() {
             match m {
-                ToLoop::Model(params) => {
-                    previous = current.take();
-                    current = params.and_then(|p| Friction::new(&p, limit, x).ok());
-                    ramp = 0.0;
-                }
-                ToLoop::Device(message) => {
-                    if let Ok(len) = encode(&message, &mut frame) {
-                        transport.write(&frame[..len]);
+                ToLoop::Model { render, model } => {
+                    board.rendering = Board::renders(on_board, model.as_ref());
+                    board.wanted = (render, model.clone());
+                    if board.rendering {
+                        renderer.select(None, x);
+                    } else {
+                        renderer.select(model.as_ref(), x);
+                    }
+                    host_render = render;
+                    host_selected = true;
+                    if connected && on_board.is_some() {
+                        // On board: this model; host-rendered: nothing of
+                        // the device's own.
+                        board.send(now, model.as_ref().filter(|_| board.rendering), &mut write);
+                        sent = true;
                     }
                 }
+                ToLoop::Device(message) => write(message),
             }
         }
+        if connected && board.rendering && board.sent_s.is_some_and(|t| now - t >= RESEND_AFTER_S) {
+            let wanted = board.wanted.1.clone();
+            board.send(now, wanted.as_ref(), &mut write);
+            sent = true;
+        }
 
-        // Render, crossfading after a model change.
-        let input = Input { x_m: x, v_m_s: v };
-        let now_out = current.as_mut().map(|f| f.step(dt, input));
-        let old_out = if ramp < 1.0 {
-            previous.as_mut().map(|f| f.step(dt, input))
-        } else {
-            None
-        };
-        ramp = (ramp + dt / RAMP_S).min(1.0);
-        let force = if connected {
-            let new = now_out.map_or(0.0, |o| o.force_n);
-            let old = old_out.map_or(0.0, |o| o.force_n);
-            limit.clamp(ramp * new + (1.0 - ramp) * old)
-        } else {
-            0.0
-        };
-        let vibration = now_out.map_or(0.0, |o| o.vibration) * ramp;
-        if let Some(m) = link.transmit(now, force, vibration)
-            && let Ok(len) = encode(&m, &mut frame)
-        {
-            transport.write(&frame[..len]);
+        if board.rendering && on_board.is_some() {
+            // The device renders: its telemetry are the ticks.
+            let mode = Mode::OnBoard {
+                rate_hz: on_board.map_or(0, |o| o.loop_rate_hz),
+                float: if on_board.is_some_and(|o| o.float_bytes == 4) {
+                    Float::F32
+                } else {
+                    Float::F64
+                },
+                #[expect(clippy::cast_possible_truncation, reason = "the wire's f32")]
+                limit_n: link.capabilities().map_or(0.0, |c| c.max_force_n as f32),
+            };
+            let device_dt = 1.0 / f64::from(on_board.map_or(1, |o| o.loop_rate_hz.max(1)));
+            for t in &telemetry {
+                let at = board.observe(t, now, device_dt);
+                let _ = outbox.push(Tick {
+                    now_s: at,
+                    x_m: t.x_m,
+                    v_m_s: t.v_m_s,
+                    force_n: t.force_n,
+                    vibration: t.vibration,
+                    button: t.flags & status::BUTTON != 0,
+                    link: link_state,
+                    render: board.device_render,
+                    selected: t.flags & status::SELECTED != 0,
+                    mode,
+                });
+            }
+            if let Some(m) = link.heartbeat(now, sent) {
+                write(m);
+            }
+            if !connected {
+                let _ = outbox.push(Tick {
+                    now_s: now.max(board.last_now),
+                    x_m: x,
+                    v_m_s: 0.0,
+                    force_n: 0.0,
+                    vibration: 0.0,
+                    button: false,
+                    link: link_state,
+                    render: UNKNOWN_RENDER,
+                    selected: false,
+                    mode,
+                });
+            }
+            continue;
+        }
+        for t in &telemetry {
+            board.observe(t, now, dt);
+        }
+
+        // Render on the host, crossfading after a model change.
+        let out = renderer.step(dt, Input { x_m: x, v_m_s: v });
+        let force = if connected { out.force_n } else { 0.0 };
+        let vibration = out.vibration;
+        if let Some(m) = link.transmit(now, force, vibration) {
+            write(m);
         }
         let _ = outbox.push(Tick {
-            now_s: now,
+            now_s: now.max(board.last_now),
             x_m: x,
             v_m_s: v,
             force_n: force,
             vibration,
             button,
-            link: link.state(now),
+            link: link_state,
+            render: host_render,
+            selected: std::mem::take(&mut host_selected),
+            mode: Mode::Host,
         });
     }
     // Zero the force on the way out.
@@ -318,5 +568,9 @@ fn run(
         crc_errors: stats.crc_errors,
         resyncs: stats.resyncs(),
         sched_fifo,
+        on_board_ticks: (board.ticks > 0).then_some(board.ticks),
+        telemetry_gaps: (board.ticks > 0).then_some(board.gaps),
+        device_longest_loop_us: (board.ticks > 0).then(|| link.device_loop().longest_loop_us),
+        device_missed_ticks: (board.ticks > 0).then(|| link.device_loop().missed_ticks),
     }
 }

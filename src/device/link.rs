@@ -7,6 +7,13 @@
 //! arrives for [`LOST_AFTER_S`], the link is lost, and it goes back to
 //! sending `Hello` until the device answers again. Time is an argument, so
 //! a test can drive it without a clock.
+//!
+//! The host speaks version 2 and connects to version 1 devices too: a
+//! device's `Capabilities` of either version is accepted. A version 2
+//! device that renders on board follows them with `OnBoard`
+//! ([`Link::on_board`]); its `Telemetry` arrives as
+//! [`Incoming::Telemetry`], and [`Link::heartbeat`] keeps its watchdog fed
+//! while it renders by itself.
 
 use super::wire::{DecodeStats, Decoder, Message, PROTOCOL_VERSION};
 
@@ -15,6 +22,60 @@ pub const LOST_AFTER_S: f64 = 0.100;
 
 /// Interval between `Hello`s while connecting, s.
 pub const HELLO_EVERY_S: f64 = 0.050;
+
+/// Interval between `Heartbeat`s to a device rendering on board, s (its
+/// watchdog trips after 20 ms of silence).
+pub const HEARTBEAT_EVERY_S: f64 = 0.005;
+
+/// What a version 2 device renders on board (its `OnBoard` message).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct OnBoard {
+    /// Bit `k - 1`: renders model kind `k`.
+    pub models: u16,
+    /// On-board loop rate, Hz.
+    pub loop_rate_hz: u16,
+    /// Bytes of its float (4: f32, 8: f64).
+    pub float_bytes: u8,
+}
+
+/// One on-board loop tick, in SI units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Telemetry {
+    /// Loop tick number (wraps).
+    pub tick: u32,
+    /// Position the model saw, m.
+    pub x_m: f64,
+    /// Velocity the model saw, m/s.
+    pub v_m_s: f64,
+    /// Force rendered, N.
+    pub force_n: f64,
+    /// Vibrotactile drive.
+    pub vibration: f64,
+    /// Label of the render in effect.
+    pub render: u8,
+    /// Status flags (`wire::status`).
+    pub flags: u8,
+}
+
+/// The device's loop statistics (its last `LoopReport`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct DeviceLoop {
+    /// Ticks run.
+    pub ticks: u32,
+    /// Longest loop body, microseconds.
+    pub longest_loop_us: u32,
+    /// Ticks that missed their deadline.
+    pub missed_ticks: u32,
+}
+
+/// What the device sent, for the loop.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Incoming {
+    /// A force loop tick (version 1, or a version 2 device in host mode).
+    Sample(Sample),
+    /// An on-board loop tick.
+    Telemetry(Telemetry),
+}
 
 /// What the device stated in its handshake.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -66,8 +127,11 @@ pub struct Link {
     capabilities: Option<Capabilities>,
     last_valid_s: Option<f64>,
     last_hello_s: Option<f64>,
+    last_sent_s: Option<f64>,
     seq: u32,
     was_connected: bool,
+    on_board: Option<OnBoard>,
+    device_loop: DeviceLoop,
 }
 
 impl Link {
@@ -81,6 +145,19 @@ impl Link {
     #[must_use]
     pub fn capabilities(&self) -> Option<Capabilities> {
         self.capabilities
+    }
+
+    /// What the device renders on board (a version 2 device that said so
+    /// in this handshake).
+    #[must_use]
+    pub fn on_board(&self) -> Option<OnBoard> {
+        self.on_board.filter(|_| self.capabilities.is_some())
+    }
+
+    /// The device's loop statistics, as last reported.
+    #[must_use]
+    pub fn device_loop(&self) -> DeviceLoop {
+        self.device_loop
     }
 
     /// Decoder counters (frames, CRC errors, resynchronisations).
@@ -99,13 +176,19 @@ impl Link {
         }
     }
 
-    /// Feeds the bytes a read returned at `now_s`; calls `on_sample` for
-    /// each sample.
-    pub fn receive(&mut self, now_s: f64, bytes: &[u8], mut on_sample: impl FnMut(Sample)) {
+    /// Feeds the bytes a read returned at `now_s`; calls `on_tick` for each
+    /// sample or telemetry.
+    #[expect(
+        clippy::too_many_lines,
+        reason = "one match over the device's messages"
+    )]
+    pub fn receive(&mut self, now_s: f64, bytes: &[u8], mut on_tick: impl FnMut(Incoming)) {
         let mut caps = None;
+        let mut on_board = None;
         let mut valid = false;
         let counts_per_m = self.capabilities.map_or(1.0, |c| c.counts_per_m);
         let connected = self.capabilities.is_some();
+        let mut device_loop = None;
         self.decoder.feed(bytes, |m| match m {
             Message::Capabilities {
                 version,
@@ -125,6 +208,18 @@ impl Link {
                     vibration_rate_hz,
                 });
             }
+            Message::OnBoard {
+                models,
+                loop_rate_hz,
+                float_bytes,
+            } => {
+                valid = true;
+                on_board = Some(OnBoard {
+                    models,
+                    loop_rate_hz,
+                    float_bytes,
+                });
+            }
             Message::Sample {
                 ack_seq,
                 time_us,
@@ -133,23 +228,87 @@ impl Link {
                 status,
             } if connected => {
                 valid = true;
-                on_sample(Sample {
+                on_tick(Incoming::Sample(Sample {
                     x_m: f64::from(position_counts) / counts_per_m,
                     button,
                     status,
                     device_time_us: time_us,
                     ack_seq,
+                }));
+            }
+            Message::Telemetry {
+                tick,
+                x_m,
+                v_m_s,
+                force_n,
+                vibration,
+                render,
+                flags,
+            } if connected => {
+                valid = true;
+                on_tick(Incoming::Telemetry(Telemetry {
+                    tick,
+                    x_m: f64::from(x_m),
+                    v_m_s: f64::from(v_m_s),
+                    force_n: f64::from(force_n),
+                    vibration: f64::from(vibration),
+                    render,
+                    flags,
+                }));
+            }
+            Message::LoopReport {
+                ticks,
+                longest_loop_us,
+                missed_ticks,
+            } => {
+                valid = true;
+                device_loop = Some(DeviceLoop {
+                    ticks,
+                    longest_loop_us,
+                    missed_ticks,
                 });
             }
             _ => {}
         });
-        if let Some(c) = caps.filter(|c| c.version == PROTOCOL_VERSION && c.counts_per_m > 0.0) {
+        if let Some(c) =
+            caps.filter(|c| (1..=PROTOCOL_VERSION).contains(&c.version) && c.counts_per_m > 0.0)
+        {
             self.capabilities = Some(c);
+            self.on_board = None;
             self.was_connected = true;
+        }
+        if let Some(o) = on_board.filter(|_| self.capabilities.is_some_and(|c| c.version >= 2)) {
+            self.on_board = Some(o);
+        }
+        if let Some(d) = device_loop {
+            self.device_loop = d;
         }
         if valid && self.capabilities.is_some() {
             self.last_valid_s = Some(now_s);
         }
+    }
+
+    /// What to send at `now_s` to a device rendering on board: a
+    /// `Heartbeat` every [`HEARTBEAT_EVERY_S`] while connected (`extra`: a
+    /// message is going anyway, so none is needed), a periodic `Hello`
+    /// otherwise.
+    pub fn heartbeat(&mut self, now_s: f64, extra: bool) -> Option<Message> {
+        if self.state(now_s) == LinkState::Connected {
+            if extra {
+                self.last_sent_s = Some(now_s);
+                return None;
+            }
+            if self
+                .last_sent_s
+                .is_some_and(|t| now_s - t < HEARTBEAT_EVERY_S)
+            {
+                return None;
+            }
+            self.last_sent_s = Some(now_s);
+            self.seq = self.seq.wrapping_add(1);
+            return Some(Message::Heartbeat { seq: self.seq });
+        }
+        self.hello(now_s)
     }
 
     /// What to send at `now_s` to render `force_n` and `vibration`: a
@@ -157,6 +316,7 @@ impl Link {
     pub fn transmit(&mut self, now_s: f64, force_n: f64, vibration: f64) -> Option<Message> {
         if self.state(now_s) == LinkState::Connected {
             self.seq = self.seq.wrapping_add(1);
+            self.last_sent_s = Some(now_s);
             #[expect(
                 clippy::cast_possible_truncation,
                 reason = "forces and drives are small; f32 is the wire's type"
@@ -167,9 +327,16 @@ impl Link {
                 vibration: vibration as f32,
             });
         }
+        self.hello(now_s)
+    }
+
+    /// A `Hello` if one is due (every [`HELLO_EVERY_S`] while not
+    /// connected).
+    fn hello(&mut self, now_s: f64) -> Option<Message> {
         if self.last_hello_s.is_none_or(|t| now_s - t >= HELLO_EVERY_S) {
             self.last_hello_s = Some(now_s);
             self.capabilities = None;
+            self.on_board = None;
             return Some(Message::Hello {
                 version: PROTOCOL_VERSION,
             });

@@ -129,6 +129,12 @@ impl SimDevice {
             .and_then(|m| Friction::new(m, ForceLimit::new(1e3).unwrap_or_default(), self.x).ok());
     }
 
+    /// The force limit of the rendered models, N.
+    #[must_use]
+    pub fn force_limit_n(&self) -> f64 {
+        self.step.force_limit.newtons()
+    }
+
     /// True position, m (for tests; a real device only gives the measured one).
     #[must_use]
     pub fn true_position_m(&self) -> f64 {
@@ -158,7 +164,20 @@ impl SimDevice {
     /// motor applying `force_n` (already limited by the caller), as a device
     /// driven by a host does.
     pub fn step_commanded(&mut self, dt: f64, hand_force_n: f64, force_n: f64) -> DeviceSample {
+        self.step_with(dt, hand_force_n, |_| force_n)
+    }
+
+    /// Advances by `dt` with the hand pushing with `hand_force_n` and the
+    /// motor applying the force `firmware` computes from what the device
+    /// sensed this tick, as a device rendering on board does.
+    pub fn step_with(
+        &mut self,
+        dt: f64,
+        hand_force_n: f64,
+        firmware: impl FnOnce(Input) -> f64,
+    ) -> DeviceSample {
         let sensed = self.sense(dt);
+        let force_n = firmware(sensed);
         let force = if force_n.is_finite() { force_n } else { 0.0 };
         self.advance(dt, hand_force_n, force);
         DeviceSample {

@@ -4,7 +4,7 @@
 
 use std::collections::VecDeque;
 
-use crate::device::haptic::{HapticLoop, LoopStats, Tick, ToLoop};
+use crate::device::haptic::{HapticLoop, LoopStats, Mode, Tick, ToLoop};
 use crate::device::link::LinkState;
 use crate::device::sim::SimDevice;
 use crate::friction::ModelParams;
@@ -37,7 +37,8 @@ pub struct DeviceStatus {
 /// A haptic loop on a serial port, with what the session tracks of it.
 pub(super) struct Port {
     haptic: HapticLoop,
-    rate_hz: f64,
+    pub(super) rate_hz: f64,
+    force_limit_n: f64,
     periods: VecDeque<f64>,
     last_tick_s: Option<f64>,
     pub(super) link: LinkState,
@@ -47,10 +48,11 @@ pub(super) struct Port {
 }
 
 impl Port {
-    pub(super) fn new(haptic: HapticLoop, rate_hz: f64) -> Self {
+    pub(super) fn new(haptic: HapticLoop, rate_hz: f64, force_limit_n: f64) -> Self {
         Port {
             haptic,
             rate_hz,
+            force_limit_n,
             periods: VecDeque::with_capacity(PERIODS_KEPT),
             last_tick_s: None,
             link: LinkState::Connecting,
@@ -78,6 +80,31 @@ impl Port {
         Some((tick, pressed))
     }
 
+    /// How `tick`'s render was stepped.
+    pub(super) fn how(&self, tick: &Tick) -> super::renders::How {
+        use crate::protocol::engine::RenderMode;
+        match tick.mode {
+            Mode::Host => super::renders::How {
+                mode: RenderMode::HostLoop,
+                float: crate::friction::Float::F64,
+                rate_hz: self.rate_hz,
+                ramp_s: crate::device::haptic::RAMP_S,
+                force_limit_n: self.force_limit_n,
+            },
+            Mode::OnBoard {
+                rate_hz,
+                float,
+                limit_n,
+            } => super::renders::How {
+                mode: RenderMode::OnBoard,
+                float,
+                rate_hz: f64::from(rate_hz),
+                ramp_s: crate::device::haptic::RAMP_S,
+                force_limit_n: f64::from(limit_n),
+            },
+        }
+    }
+
     /// Sends the hand drive to the device, at most every [`HAND_EVERY_S`]
     /// of device time `now_s`, and at once when a new movement segment
     /// starts, preceded by a relaxed drive (zero integral gain) that ends
@@ -102,8 +129,13 @@ impl Port {
 
 /// Where a session renders friction.
 pub(super) enum Device {
-    /// The simulated apparatus, stepped at `dt` (the rendered model's rate).
-    Sim { device: Box<SimDevice>, dt: f64 },
+    /// The simulated apparatus, stepped at `dt` (the rendered model's
+    /// rate), rendering the session's render number `render`.
+    Sim {
+        device: Box<SimDevice>,
+        dt: f64,
+        render: u32,
+    },
     /// The haptic loop on a serial port.
     Port(Box<Port>),
     /// The haptic loop has stopped (session finished or aborted).
@@ -111,16 +143,25 @@ pub(super) enum Device {
 }
 
 impl Device {
-    /// Renders `model` from now on (`None`: nothing).
-    pub(super) fn render(&mut self, model: Option<&ModelParams>) {
+    /// Renders `model` from now on (`None`: nothing), as the session's
+    /// render number `render`.
+    pub(super) fn render(&mut self, render: u32, model: Option<&ModelParams>) {
         match self {
-            Device::Sim { device, dt } => {
+            Device::Sim {
+                device,
+                dt,
+                render: current,
+            } => {
                 device.set_model(model);
+                *current = render;
                 if let Some(m) = model {
                     *dt = 1.0 / m.loop_rate_hz();
                 }
             }
-            Device::Port(port) => port.haptic.send(ToLoop::Model(model.cloned())),
+            Device::Port(port) => port.haptic.send(ToLoop::Model {
+                render,
+                model: model.cloned(),
+            }),
             Device::Stopped { .. } => {}
         }
     }
@@ -133,11 +174,23 @@ impl Device {
         }
     }
 
-    /// Puts the simulated device at rest at `x_m`; false on a real device,
-    /// where the hand moves there itself.
-    pub(super) fn reset(&mut self, x_m: f64) -> bool {
-        if let Device::Sim { device, .. } = self {
+    /// Whether this is the simulated device.
+    pub(super) fn is_sim(&self) -> bool {
+        matches!(self, Device::Sim { .. })
+    }
+
+    /// Puts the simulated device at rest at `x_m`, its model restarted
+    /// there as render number `render`; false on a real device, where the
+    /// hand moves there itself.
+    pub(super) fn reset(&mut self, x_m: f64, render: u32) -> bool {
+        if let Device::Sim {
+            device,
+            render: current,
+            ..
+        } = self
+        {
             device.reset(x_m);
+            *current = render;
             true
         } else {
             false

@@ -52,6 +52,7 @@ pub mod device;
 pub mod headless;
 pub mod open;
 pub mod record;
+mod renders;
 pub mod responder;
 pub mod view;
 
@@ -76,10 +77,12 @@ use crate::device::DeviceSample;
 use crate::device::haptic::HapticLoop;
 use crate::device::link::LinkState;
 use crate::device::sim::{Apparatus, SimDevice};
-use crate::friction::StepParams;
+use crate::friction::{ModelParams, StepParams};
+use crate::protocol::engine::RenderMode;
 use crate::protocol::engine::{Action, Engine, Input};
 use crate::results::{Header, LogLine, ResultsDir, ResultsError};
 use device::{Device, Port};
+use renders::{How, Renders};
 use view::Trace;
 
 /// The session a person runs from the window.
@@ -165,6 +168,14 @@ pub struct Session<R: Responder> {
     last_record: Option<usize>,
     done_this_run: usize,
     wall: Option<f64>,
+    renders: Renders,
+    /// The render in effect at the last device sample, and how it was
+    /// stepped.
+    row_render: (u32, How),
+    /// Whether a render took effect at the last sample, and (the simulated
+    /// device) whether one takes effect at the next.
+    selected: bool,
+    sim_selected: bool,
 }
 
 impl<R: Responder> Session<R> {
@@ -218,6 +229,7 @@ impl<R: Responder> Session<R> {
                         step,
                     )),
                     dt: step.dt(),
+                    render: 0,
                 }
             }
             DeviceChoice::Port(path) => {
@@ -227,7 +239,11 @@ impl<R: Responder> Session<R> {
                 };
                 let haptic =
                     HapticLoop::start(path.clone(), step, true).map_err(SessionError::Loop)?;
-                Device::Port(Box::new(Port::new(haptic, rate_hz)))
+                Device::Port(Box::new(Port::new(
+                    haptic,
+                    rate_hz,
+                    step.force_limit.newtons(),
+                )))
             }
         };
         Ok(Session {
@@ -251,6 +267,19 @@ impl<R: Responder> Session<R> {
             last_record: None,
             done_this_run: 0,
             wall: None,
+            renders: Renders::default(),
+            selected: false,
+            sim_selected: false,
+            row_render: (
+                0,
+                How {
+                    mode: RenderMode::Simulated,
+                    float: crate::friction::Float::F64,
+                    rate_hz: 0.0,
+                    ramp_s: 0.0,
+                    force_limit_n: 0.0,
+                },
+            ),
         })
     }
 
@@ -276,12 +305,23 @@ impl<R: Responder> Session<R> {
     }
 
     fn tick_sim(&mut self) {
-        let Device::Sim { device, dt } = &mut self.device else {
+        let Device::Sim { device, dt, render } = &mut self.device else {
             return;
         };
         let dt = *dt;
         let force = self.responder.hand_force(self.t, dt, &self.sample);
         self.sample = device.step(dt, force);
+        self.selected = std::mem::take(&mut self.sim_selected);
+        self.row_render = (
+            *render,
+            How {
+                mode: RenderMode::Simulated,
+                float: crate::friction::Float::F64,
+                rate_hz: 1.0 / dt,
+                ramp_s: 0.0,
+                force_limit_n: device.force_limit_n(),
+            },
+        );
         self.t += dt;
         self.observe();
     }
@@ -312,6 +352,8 @@ impl<R: Responder> Session<R> {
                 force_n: tick.force_n,
                 vibration: tick.vibration,
             };
+            self.row_render = (tick.render, port.how(&tick));
+            self.selected = tick.selected;
             if let Some(drive) = self.responder.drive(self.t, &self.sample) {
                 port.drive_hand(tick.now_s, &drive);
             }
@@ -359,7 +401,10 @@ impl<R: Responder> Session<R> {
         if self.engine.in_trial()
             && let Some(open) = self.log.opened()
         {
-            open.streams.push(self.t, &self.sample);
+            let (render, how) = self.row_render;
+            let index = self.renders.row(render, how);
+            open.streams
+                .push(self.t, &self.sample, index, self.selected);
         }
         if let Some(trace) = &mut self.trace {
             trace.observe(self.t, &self.sample);
@@ -400,8 +445,11 @@ impl<R: Responder> Session<R> {
 
     fn apply(&mut self, reaction: Reaction) {
         if let Some(x_m) = reaction.reset_to
-            && self.device.reset(x_m)
+            && self.device.is_sim()
         {
+            let render = self.renders.send(self.renders.last_model());
+            self.device.reset(x_m, render);
+            self.sim_selected = true;
             self.sample = DeviceSample {
                 x_m,
                 ..DeviceSample::default()
@@ -458,10 +506,12 @@ impl<R: Responder> Session<R> {
     fn act(&mut self, action: &Action) -> Result<(), ResultsError> {
         self.view.follow(action);
         match action {
-            Action::Render(model) => self.device.render(model.as_ref()),
+            Action::Render(model) => self.render(model.as_ref()),
             Action::Physical(model) => self.device.set_physical(model.as_ref()),
             Action::Record(record) => {
-                self.log.open()?.write_record(record)?;
+                let mut record = record.clone();
+                record.rendering = self.renders.take();
+                self.log.open()?.write_record(&record)?;
                 self.records += 1;
                 self.last_record = Some(record.trial);
                 if !record.requeued {
@@ -571,8 +621,15 @@ impl<R: Responder> Session<R> {
             self.interrupt_trial(reason);
             self.settle()?;
         }
-        self.device.render(None);
+        self.render(None);
         Ok(())
+    }
+
+    /// Renders `model` from now on, numbered (see [`renders`]).
+    fn render(&mut self, model: Option<&ModelParams>) {
+        let render = self.renders.send(model.cloned());
+        self.device.render(render, model);
+        self.sim_selected = self.device.is_sim();
     }
 
     /// Appends the experimenter's note to the session log (held until the

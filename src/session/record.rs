@@ -13,13 +13,18 @@ use crate::results::{Header, LogLine, ResultsDir, ResultsError, data_csv, replac
 /// the trial ends, to
 /// `streams/study-<P>_subject-<S>_session-<n>_trial-<k>_run-<r>_stream.csv`
 /// (`k` the planned trial index, `r` its presentation: 1, or more for a
-/// re-queued trial). Columns `t_s,x_m,v_m_s,force_n,vibration`: session
-/// time, device position and velocity, rendered force on the hand, and
-/// vibrotactile drive (SI units), readable by `frictionlab identify`.
+/// re-queued trial). Columns
+/// `t_s,x_m,v_m_s,force_n,vibration,render,selected`:
+/// session time, device position and velocity (what the model saw),
+/// rendered force on the hand, vibrotactile drive (SI units), and the
+/// index of the render in effect in the trial record's `rendering` list,
+/// and 1 where a render took effect (its model started at rest there).
+/// Readable by `frictionlab identify`; `frictionlab rerender` renders it
+/// again.
 #[derive(Debug, Clone, Default)]
 pub struct StreamRecorder {
     stem: Option<PathBuf>,
-    rows: Vec<[f64; 5]>,
+    rows: Vec<([f64; 5], usize, bool)>,
 }
 
 impl StreamRecorder {
@@ -39,11 +44,15 @@ impl StreamRecorder {
         }
     }
 
-    /// Adds a sample of the trial under way.
-    pub fn push(&mut self, t_s: f64, s: &DeviceSample) {
+    /// Adds a sample of the trial under way, rendered by the trial's
+    /// render number `render`.
+    pub fn push(&mut self, t_s: f64, s: &DeviceSample, render: usize, selected: bool) {
         if self.stem.is_some() {
-            self.rows
-                .push([t_s, s.x_m, s.v_m_s, s.force_n, s.vibration]);
+            self.rows.push((
+                [t_s, s.x_m, s.v_m_s, s.force_n, s.vibration],
+                render,
+                selected,
+            ));
         }
     }
 
@@ -54,9 +63,18 @@ impl StreamRecorder {
             return Ok(());
         };
         let mut text = String::with_capacity(rows.len() * 64 + 40);
-        text.push_str("t_s,x_m,v_m_s,force_n,vibration\n");
-        for r in &rows {
-            let _ = writeln!(text, "{},{},{},{},{}", r[0], r[1], r[2], r[3], r[4]);
+        text.push_str("t_s,x_m,v_m_s,force_n,vibration,render,selected\n");
+        for (r, render, selected) in &rows {
+            let _ = writeln!(
+                text,
+                "{},{},{},{},{},{render},{}",
+                r[0],
+                r[1],
+                r[2],
+                r[3],
+                r[4],
+                u8::from(*selected)
+            );
         }
         let path = PathBuf::from(format!(
             "{}_trial-{trial}_run-{run}_stream.csv",

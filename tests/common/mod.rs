@@ -106,8 +106,14 @@ pub fn wiggle(n: usize, dt: f64, a: f64) -> Vec<Input> {
 /// Starts `frictionlab device-emulator PATH` and waits until it has linked
 /// its pseudo-terminal at `path`.
 pub fn emulator(path: &std::path::Path) -> std::process::Child {
+    emulator_with(path, &[])
+}
+
+/// [`emulator`] with more options (`--on-board`).
+pub fn emulator_with(path: &std::path::Path, options: &[&str]) -> std::process::Child {
     let child = std::process::Command::new(env!("CARGO_BIN_EXE_frictionlab"))
         .args(["device-emulator", path.to_str().unwrap()])
+        .args(options)
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
         .spawn()

@@ -8,6 +8,9 @@
 //!   Cortex-M4F, with `libm` maths on both, so a host re-render in `f32`
 //!   matches the device bit for bit.
 //! - [`check`]: parameter checks that report through a callback.
+//! - [`render`]: a model's parameters as numbers, and the renderer that
+//!   crossfades between models and clamps the force.
+//! - [`onboard`]: a device rendering models itself (wire protocol v2).
 //! - [`wire`]: the device wire protocol's messages, framing (COBS + CRC)
 //!   and sans-IO decoder, for the host and the firmware alike.
 //!
@@ -18,7 +21,9 @@
 
 pub mod check;
 pub mod friction;
+pub mod onboard;
 pub mod real;
+pub mod render;
 pub mod wire;
 
 pub use real::Real;

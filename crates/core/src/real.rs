@@ -43,6 +43,12 @@ pub trait Real:
     fn of(x: f64) -> Self;
     /// As `f64` (exact).
     fn to_f64(self) -> f64;
+    /// As `f32` (rounded to nearest; exact for `f32`): the wire's float.
+    #[must_use]
+    #[expect(clippy::cast_possible_truncation, reason = "the wire carries f32")]
+    fn to_f32(self) -> f32 {
+        self.to_f64() as f32
+    }
     /// e^self.
     #[must_use]
     fn exp(self) -> Self;

@@ -12,7 +12,10 @@
 use serde::{Deserialize, Serialize};
 
 /// Protocol version this build speaks.
-pub const PROTOCOL_VERSION: u16 = 1;
+pub const PROTOCOL_VERSION: u16 = 2;
+
+/// Values per [`Message::Upload`].
+pub const UPLOAD_VALUES: usize = 5;
 
 /// Largest payload (message plus CRC), bytes.
 pub const MAX_PAYLOAD: usize = 48;
@@ -32,6 +35,15 @@ pub mod status {
     pub const CLAMPED: u8 = 2;
     /// The device is at an end of its range.
     pub const END_STOP: u8 = 4;
+    /// (v2 `Telemetry`) the on-board model is slipping.
+    pub const SLIP: u8 = 8;
+    /// (v2 `Telemetry`) the device's button is pressed.
+    pub const BUTTON: u8 = 16;
+    /// (v2 `Telemetry`) the last `Select` was refused (values missing, the
+    /// check did not match, or an invalid model): nothing is rendered.
+    pub const REFUSED: u8 = 32;
+    /// (v2 `Telemetry`) a `Select` or `Clear` took effect at this tick.
+    pub const SELECTED: u8 = 64;
 }
 
 /// Every message of the protocol, host-to-device and device-to-host. The
@@ -111,6 +123,94 @@ pub enum Message {
         /// [`status`] flags.
         status: u8,
     },
+    /// 6, device -> host (v2), right after `Capabilities`: what the device
+    /// renders on board.
+    OnBoard {
+        /// Bit `k - 1` set: renders model kind `k` (1 + its index in
+        /// `ModelParams::NAMES`).
+        #[serde(with = "postcard::fixint::le")]
+        models: u16,
+        /// On-board loop rate, Hz.
+        #[serde(with = "postcard::fixint::le")]
+        loop_rate_hz: u16,
+        /// Bytes of the float the models compute in (4: f32, 8: f64).
+        float_bytes: u8,
+    },
+    /// 7, host -> device (v2): part of a model's parameters, staged for the
+    /// next `Select`.
+    Upload {
+        /// Model kind.
+        kind: u8,
+        /// Index of `values[0]` among the model's parameters.
+        first: u8,
+        /// Parameters `first..first + 5` (unused ones 0).
+        values: [f64; UPLOAD_VALUES],
+    },
+    /// 8, host -> device (v2): render the staged model, crossfading over
+    /// 50 ms.
+    Select {
+        /// The host's label for this render, echoed in `Telemetry`.
+        render: u8,
+        /// Model kind.
+        kind: u8,
+        /// Number of parameters.
+        count: u8,
+        /// CRC-16/IBM-3740 of the `count` parameters as f64 little endian.
+        #[serde(with = "postcard::fixint::le")]
+        check: u16,
+    },
+    /// 9, host -> device (v2): render nothing on board, crossfading out.
+    Clear {
+        /// The host's label for this render.
+        render: u8,
+    },
+    /// 10, host -> device (v2): send `Telemetry` every `every` loop ticks.
+    SetTelemetry {
+        /// Decimation, ticks (0: none).
+        #[serde(with = "postcard::fixint::le")]
+        every: u16,
+    },
+    /// 11, device -> host (v2): the state of one loop tick.
+    Telemetry {
+        /// Loop tick number (wraps).
+        #[serde(with = "postcard::fixint::le")]
+        tick: u32,
+        /// Position the model saw, m.
+        x_m: f32,
+        /// Velocity the model saw, m/s.
+        v_m_s: f32,
+        /// Force rendered, N (after crossfade, clamp and watchdog).
+        force_n: f32,
+        /// Vibrotactile drive.
+        vibration: f32,
+        /// Label of the render in effect.
+        render: u8,
+        /// [`status`] flags.
+        flags: u8,
+    },
+    /// 12, device -> host (v2), every 100 ms: loop statistics.
+    LoopReport {
+        /// Loop ticks run.
+        #[serde(with = "postcard::fixint::le")]
+        ticks: u32,
+        /// Longest loop body, microseconds.
+        #[serde(with = "postcard::fixint::le")]
+        longest_loop_us: u32,
+        /// Ticks whose deadline passed before they ran.
+        #[serde(with = "postcard::fixint::le")]
+        missed_ticks: u32,
+    },
+}
+
+/// The check of a `Select`: CRC-16/IBM-3740 of the values as f64 little
+/// endian.
+#[must_use]
+pub fn values_check(values: &[f64]) -> u16 {
+    let mut digest = CRC.digest();
+    for v in values {
+        digest.update(&v.to_le_bytes());
+    }
+    digest.finalize()
 }
 
 /// Encodes `message` as one frame into `out` (at least [`MAX_FRAME`] bytes);

@@ -46,7 +46,7 @@ mod source;
 
 pub use crate::kinds::TrialData;
 pub use crate::kinds::magnitude::parse_magnitude;
-pub use record::{Choice, Status, TrialRecord};
+pub use record::{Choice, RenderEntry, RenderMode, Status, TrialRecord};
 pub use source::{TrialSource, next_position};
 
 /// A participant's answer.
@@ -452,6 +452,7 @@ impl Engine {
             started_s: live.started,
             ended_s: now,
             data,
+            rendering: Vec::new(),
         };
         self.history.push(record.clone());
         self.out.push_back(Action::Render(None));

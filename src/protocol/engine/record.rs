@@ -80,4 +80,42 @@ pub struct TrialRecord {
     pub ended_s: f64,
     /// What was presented and answered.
     pub data: TrialData,
+    /// What rendered the trial's friction, one entry per render the
+    /// trial's stream shows, in order; the stream's `render` column indexes
+    /// it. Filled by the session (the engine knows no device); absent in
+    /// logs from before it existed.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub rendering: Vec<RenderEntry>,
+}
+
+/// Who rendered a model: the simulated apparatus, the host's haptic loop
+/// commanding force over the link, or the device itself.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum RenderMode {
+    /// The simulated apparatus (no crossfade: models switch at once).
+    Simulated,
+    /// The host's haptic loop, one force command per tick.
+    HostLoop,
+    /// On board the device (wire protocol v2), from its telemetry.
+    OnBoard,
+}
+
+/// One render of a trial: the model and how it was stepped, enough to
+/// render it again over the recorded motion (`frictionlab rerender`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RenderEntry {
+    /// The model, or nothing.
+    pub model: Option<crate::friction::ModelParams>,
+    /// Who rendered it.
+    pub mode: RenderMode,
+    /// The float it was stepped in.
+    pub float: crate::friction::Float,
+    /// Loop rate, Hz.
+    pub rate_hz: f64,
+    /// Crossfade from the previous render, s (0: at once).
+    pub ramp_s: f64,
+    /// Force limit, N.
+    pub force_limit_n: f64,
 }

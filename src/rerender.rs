@@ -1,0 +1,314 @@
+//! Re-rendering a recorded trial stream: the audit of what a participant
+//! felt. The stream gives the motion each tick's model saw (`x_m`,
+//! `v_m_s`), what was rendered (`force_n`, `vibration`) and which of the
+//! trial's renders was in effect (`render`); the trial's record in the log
+//! gives each render's model and how it was stepped (who, float, rate,
+//! crossfade, force limit). The models are rendered again through the
+//! core's [`Renderer`] over the recorded motion, and the largest
+//! differences from the recorded force and vibration are reported.
+//!
+//! # Where the replay starts
+//! A stream starts when its trial does; the render in effect at its first
+//! row may have begun before (the previous trial's, fading out), in a state
+//! the stream does not show. So the replay starts at the first row marked
+//! `selected` whose render is a model (the trial's model starting), and
+//! the rows before it are counted as `skipped`. Every trial ends by
+//! rendering nothing, so a trial's first model starts from nothing (a
+//! select crossfades from the render in effect, which is nothing) and its
+//! state from there on is all in the stream. Every later `selected` row
+//! selects its render again, as the device did.
+//!
+//! A select takes effect at its row, the model at rest at that row's
+//! position, as the haptic loop and the on-board `Board` do; on the
+//! simulated device, at the previous row's position (where the device was
+//! when the model was set).
+
+use std::path::{Path, PathBuf};
+
+use frictionlab_core::render::Renderer;
+
+use crate::friction::{Float, ForceLimit, Input};
+use crate::problem::Problem;
+use crate::protocol::engine::{RenderEntry, RenderMode};
+use frictionlab_core::Real;
+
+/// One row of a stream.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Row {
+    /// Session time, s.
+    pub t_s: f64,
+    /// Position the model saw, m.
+    pub x_m: f64,
+    /// Velocity the model saw, m/s.
+    pub v_m_s: f64,
+    /// Force rendered, N.
+    pub force_n: f64,
+    /// Vibration drive rendered.
+    pub vibration: f64,
+    /// Index of the render in effect in the record's `rendering`.
+    pub render: usize,
+    /// Whether a render took effect at this row.
+    pub selected: bool,
+}
+
+/// What a re-render found.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Rerendered {
+    /// The stream file.
+    pub stream: String,
+    /// The trial and its presentation.
+    pub trial: usize,
+    /// 1 for the first presentation, more for a re-queued trial.
+    pub run: usize,
+    /// Rows in the stream.
+    pub rows: usize,
+    /// Rows before the replay starts (see the module docs).
+    pub skipped: usize,
+    /// Who rendered the replayed rows (each mode once, in order).
+    pub modes: Vec<RenderMode>,
+    /// The floats they were stepped in.
+    pub floats: Vec<Float>,
+    /// Largest |recorded - re-rendered| force over the replayed rows, N.
+    pub max_force_diff_n: f64,
+    /// Largest |recorded - re-rendered| vibration drive.
+    pub max_vibration_diff: f64,
+    /// The row (0-based, after the header) of the largest force
+    /// difference, if any differs.
+    pub worst_row: Option<usize>,
+    /// Whether every replayed row matches exactly (the same number; 0 and
+    /// -0 alike).
+    pub bit_exact: bool,
+}
+
+/// Re-renders the stream at `path`, with its models from the session log
+/// beside it (`<results>/logs/`, found from the stream's name).
+///
+/// # Errors
+/// An unreadable or malformed stream (with `line:col`), no log or no
+/// record for the trial, a render index the record lacks.
+pub fn rerender_file(path: &Path) -> Result<Rerendered, Problem> {
+    let file = path.display().to_string();
+    let (log_path, trial, run) = log_of(path).ok_or_else(|| {
+        Problem::new(
+            &file,
+            "not a session stream: expected <results>/streams/study-<P>_subject-<S>_session-<n>_trial-<k>_run-<r>_stream.csv",
+        )
+    })?;
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Problem::new(&file, format!("cannot read: {e}")))?;
+    let rows = parse_stream(&file, &text)?;
+    let log = crate::results::read_log(&log_path)
+        .map_err(|e| Problem::new(log_path.display().to_string(), e.to_string()))?;
+    let record = log
+        .trials
+        .iter()
+        .filter(|r| r.trial == trial)
+        .nth(run - 1)
+        .ok_or_else(|| {
+            Problem::new(
+                log_path.display().to_string(),
+                format!("no record of trial {trial}, presentation {run}"),
+            )
+        })?;
+    if record.rendering.is_empty() {
+        return Err(Problem::new(
+            log_path.display().to_string(),
+            format!(
+                "trial {trial}: the record has no 'rendering' (a log from before frictionlab recorded it)"
+            ),
+        ));
+    }
+    if let Some(i) = rows.iter().position(|r| r.render >= record.rendering.len()) {
+        return Err(Problem::new(
+            format!("{file}: {}:6", i + 2),
+            format!(
+                "render {} is not in the record's rendering (it has {})",
+                rows[i].render,
+                record.rendering.len()
+            ),
+        ));
+    }
+    let mut out = rerender(&rows, &record.rendering);
+    out.stream = file;
+    out.trial = trial;
+    out.run = run;
+    Ok(out)
+}
+
+/// The log, trial and run of a stream at `<root>/streams/<stem>_trial-<k>_run-<r>_stream.csv`.
+fn log_of(path: &Path) -> Option<(PathBuf, usize, usize)> {
+    let name = path.file_name()?.to_str()?;
+    let rest = name.strip_suffix("_stream.csv")?;
+    let (rest, run) = rest.rsplit_once("_run-")?;
+    let (stem, trial) = rest.rsplit_once("_trial-")?;
+    let run: usize = run.parse().ok().filter(|r| *r >= 1)?;
+    let root = path.parent()?.parent()?;
+    Some((
+        root.join("logs").join(format!("{stem}_log.jsonl")),
+        trial.parse().ok()?,
+        run,
+    ))
+}
+
+/// Parses a stream's text.
+///
+/// # Errors
+/// A missing column, or a value that is not a number, at `line:col`.
+pub fn parse_stream(file: &str, text: &str) -> Result<Vec<Row>, Problem> {
+    const COLUMNS: [&str; 7] = [
+        "t_s",
+        "x_m",
+        "v_m_s",
+        "force_n",
+        "vibration",
+        "render",
+        "selected",
+    ];
+    let mut lines = text.lines();
+    let header = lines.next().unwrap_or_default();
+    let names: Vec<&str> = header.split(',').map(str::trim).collect();
+    let at: Vec<usize> = COLUMNS
+        .iter()
+        .map(|c| {
+            names.iter().position(|n| n == c).ok_or_else(|| {
+                Problem::new(
+                    format!("{file}: 1:1"),
+                    format!("column '{c}': missing (a stream has {})", COLUMNS.join(",")),
+                )
+            })
+        })
+        .collect::<Result<_, _>>()?;
+    let mut rows = Vec::new();
+    for (i, line) in lines.enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let cells: Vec<&str> = line.split(',').collect();
+        let mut v = [0.0; 7];
+        for (k, &c) in at.iter().enumerate() {
+            let cell = cells.get(c).map(|s| s.trim()).unwrap_or_default();
+            v[k] = cell
+                .parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| {
+                    Problem::new(
+                        format!("{file}: {}:{}", i + 2, c + 1),
+                        format!("column '{}': '{cell}' is not a finite number", COLUMNS[k]),
+                    )
+                })?;
+        }
+        #[expect(
+            clippy::cast_possible_truncation,
+            clippy::cast_sign_loss,
+            reason = "checked to be a small whole number"
+        )]
+        let render = if v[5] >= 0.0 && v[5].fract() == 0.0 && v[5] < 1e6 {
+            v[5] as usize
+        } else {
+            return Err(Problem::new(
+                format!("{file}: {}:{}", i + 2, at[5] + 1),
+                format!("column 'render': '{}' is not a render index", v[5]),
+            ));
+        };
+        rows.push(Row {
+            t_s: v[0],
+            x_m: v[1],
+            v_m_s: v[2],
+            force_n: v[3],
+            vibration: v[4],
+            render,
+            selected: v[6] != 0.0,
+        });
+    }
+    Ok(rows)
+}
+
+/// Re-renders `rows` with the renders `entries` (see the module docs).
+#[must_use]
+pub fn rerender(rows: &[Row], entries: &[RenderEntry]) -> Rerendered {
+    let mut out = Rerendered {
+        stream: String::new(),
+        trial: 0,
+        run: 1,
+        rows: rows.len(),
+        skipped: 0,
+        modes: Vec::new(),
+        floats: Vec::new(),
+        max_force_diff_n: 0.0,
+        max_vibration_diff: 0.0,
+        worst_row: None,
+        bit_exact: true,
+    };
+    let Some(first) = rows.first().and_then(|r| entries.get(r.render)) else {
+        return out;
+    };
+    let start = rows
+        .iter()
+        .position(|r| r.selected && entries.get(r.render).is_some_and(|e| e.model.is_some()))
+        .unwrap_or(rows.len());
+    out.skipped = start;
+    match first.float {
+        Float::F64 => replay::<f64>(rows, entries, start, &mut out),
+        Float::F32 => replay::<f32>(rows, entries, start, &mut out),
+    }
+    out
+}
+
+fn replay<T: Real>(rows: &[Row], entries: &[RenderEntry], start: usize, out: &mut Rerendered) {
+    let Some(entry) = rows.get(start).and_then(|r| entries.get(r.render)) else {
+        return;
+    };
+    let limit = ForceLimit::new(T::of(entry.force_limit_n)).unwrap_or_default();
+    let mut renderer = Renderer::<T>::new(limit, T::of(entry.ramp_s));
+    let dt = T::of(1.0 / entry.rate_hz);
+    let mut current = None;
+    for (i, row) in rows.iter().enumerate().skip(start) {
+        if row.selected || current != Some(row.render) {
+            let Some(e) = entries.get(row.render) else {
+                return;
+            };
+            if !out.modes.contains(&e.mode) {
+                out.modes.push(e.mode);
+            }
+            if !out.floats.contains(&e.float) {
+                out.floats.push(e.float);
+            }
+            let x = if e.mode == RenderMode::Simulated && i > 0 {
+                rows[i - 1].x_m
+            } else {
+                row.x_m
+            };
+            // Renders skipped between two rows (two selects in one tick)
+            // are selected in turn.
+            let from = current.map_or(row.render, |c: usize| (c + 1).min(row.render));
+            let from = if current == Some(row.render) {
+                row.render
+            } else {
+                from
+            };
+            for k in from..=row.render {
+                renderer.select(entries.get(k).and_then(|e| e.model.as_ref()), T::of(x));
+            }
+            current = Some(row.render);
+        }
+        let o = renderer.step(
+            dt,
+            Input {
+                x_m: T::of(row.x_m),
+                v_m_s: T::of(row.v_m_s),
+            },
+        );
+        let (f, v) = (o.force_n.to_f64(), o.vibration.to_f64());
+        let df = (f - row.force_n).abs();
+        let dv = (v - row.vibration).abs();
+        if df != 0.0 || dv != 0.0 {
+            out.bit_exact = false;
+        }
+        if df > out.max_force_diff_n {
+            out.max_force_diff_n = df;
+            out.worst_row = Some(i);
+        }
+        out.max_vibration_diff = out.max_vibration_diff.max(dv);
+    }
+}
