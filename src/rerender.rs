@@ -281,11 +281,9 @@ fn replay<T: Real>(rows: &[Row], entries: &[RenderEntry], start: usize, out: &mu
             };
             // Renders skipped between two rows (two selects in one tick)
             // are selected in turn.
-            let from = current.map_or(row.render, |c: usize| (c + 1).min(row.render));
-            let from = if current == Some(row.render) {
-                row.render
-            } else {
-                from
+            let from = match current {
+                Some(c) if c < row.render => c + 1,
+                _ => row.render,
             };
             for k in from..=row.render {
                 renderer.select(entries.get(k).and_then(|e| e.model.as_ref()), T::of(x));

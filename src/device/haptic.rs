@@ -233,7 +233,7 @@ impl Drop for HapticLoop {
 }
 
 /// What the loop knows of the device's on-board rendering.
-struct Board {
+struct OnBoardState {
     /// The session's render to render, and whether the device renders it.
     wanted: (u32, Option<ModelParams>),
     rendering: bool,
@@ -252,9 +252,9 @@ struct Board {
     gaps: u64,
 }
 
-impl Board {
+impl OnBoardState {
     fn new() -> Self {
-        Board {
+        OnBoardState {
             wanted: (0, None),
             rendering: false,
             labels: [(0, UNKNOWN_RENDER); 4],
@@ -272,7 +272,7 @@ impl Board {
     fn renders(on_board: Option<OnBoard>, model: Option<&ModelParams>) -> bool {
         on_board.is_some_and(|o| {
             model.is_none_or(|m| {
-                let kind = m.flatten().kind;
+                let kind = m.kind();
                 kind > 0
                     && o.models & (1 << (kind - 1)) != 0
                     && f64::from(o.loop_rate_hz) >= m.loop_rate_hz()
@@ -357,7 +357,7 @@ fn run(
     let mut renderer = Renderer::<f64>::new(limit, RAMP_S);
     let mut host_render = 0_u32;
     let mut host_selected = false;
-    let mut board = Board::new();
+    let mut board = OnBoardState::new();
     let mut was_connected = false;
     let mut telemetry: Vec<Telemetry> = Vec::with_capacity(64);
     let (mut x, mut x_prev, mut v, mut button) = (0.0_f64, None::<f64>, 0.0_f64, false);
@@ -417,7 +417,7 @@ fn run(
             board.disconnected();
             if on_board.is_some() {
                 write(Message::SetTelemetry { every: 1 });
-                board.rendering = Board::renders(on_board, board.wanted.1.as_ref());
+                board.rendering = OnBoardState::renders(on_board, board.wanted.1.as_ref());
                 if board.rendering {
                     let wanted = board.wanted.1.clone();
                     board.send(now, wanted.as_ref(), &mut write);
@@ -439,7 +439,7 @@ fn run(
         while let Ok(m) = inbox.pop() {
             match m {
                 ToLoop::Model { render, model } => {
-                    board.rendering = Board::renders(on_board, model.as_ref());
+                    board.rendering = OnBoardState::renders(on_board, model.as_ref());
                     board.wanted = (render, model.clone());
                     if board.rendering {
                         renderer.select(None, x);

@@ -170,15 +170,22 @@ impl ModelParams {
             Self::Viscous(p) => p.put(&mut values),
             Self::None => 0,
         };
+        Flat {
+            kind: self.kind(),
+            len,
+            values,
+        }
+    }
+
+    /// The model's kind on the wire: 1 + the index of its name in
+    /// [`ModelParams::NAMES`].
+    #[must_use]
+    pub fn kind(&self) -> u8 {
         let index = Self::NAMES
             .iter()
             .position(|n| *n == self.name())
             .unwrap_or(0);
-        Flat {
-            kind: u8::try_from(index + 1).unwrap_or(0),
-            len,
-            values,
-        }
+        u8::try_from(index + 1).unwrap_or(0)
     }
 
     /// The parameters of model `kind` from exactly its numbers; None for an
