@@ -27,7 +27,7 @@ use std::path::{Path, PathBuf};
 
 use frictionlab_core::render::Renderer;
 
-use crate::friction::{Float, ForceLimit, Input};
+use crate::friction::{Float, ForceLimit, Input, ModelParams};
 use crate::problem::Problem;
 use crate::protocol::engine::{RenderEntry, RenderMode};
 use frictionlab_core::Real;
@@ -78,6 +78,14 @@ pub struct Rerendered {
     /// Whether every replayed row matches exactly (the same number; 0 and
     /// -0 alike).
     pub bit_exact: bool,
+    /// Time the replayed rows span, s.
+    pub replayed_s: f64,
+    /// Stick-to-slip transitions of the replayed models (Nakano's stick-slip
+    /// and the god object; the other models have none).
+    pub slip_onsets: usize,
+    /// Those of them that started a vibrotactile burst (in a model that
+    /// drives the actuator).
+    pub bursts: usize,
 }
 
 /// Re-renders the stream at `path`, with its models from the session log
@@ -239,6 +247,9 @@ pub fn rerender(rows: &[Row], entries: &[RenderEntry]) -> Rerendered {
         max_vibration_diff: 0.0,
         worst_row: None,
         bit_exact: true,
+        replayed_s: 0.0,
+        slip_onsets: 0,
+        bursts: 0,
     };
     let Some(first) = rows.first().and_then(|r| entries.get(r.render)) else {
         return out;
@@ -263,6 +274,8 @@ fn replay<T: Real>(rows: &[Row], entries: &[RenderEntry], start: usize, out: &mu
     let mut renderer = Renderer::<T>::new(limit, T::of(entry.ramp_s));
     let dt = T::of(1.0 / entry.rate_hz);
     let mut current = None;
+    let mut vibrates = false;
+    out.replayed_s = rows.last().map_or(0.0, |last| last.t_s - rows[start].t_s);
     for (i, row) in rows.iter().enumerate().skip(start) {
         if row.selected || current != Some(row.render) {
             let Some(e) = entries.get(row.render) else {
@@ -289,6 +302,7 @@ fn replay<T: Real>(rows: &[Row], entries: &[RenderEntry], start: usize, out: &mu
                 renderer.select(entries.get(k).and_then(|e| e.model.as_ref()), T::of(x));
             }
             current = Some(row.render);
+            vibrates = e.model.as_ref().is_some_and(ModelParams::has_vibration);
         }
         let o = renderer.step(
             dt,
@@ -297,6 +311,10 @@ fn replay<T: Real>(rows: &[Row], entries: &[RenderEntry], start: usize, out: &mu
                 v_m_s: T::of(row.v_m_s),
             },
         );
+        if o.slip_onset {
+            out.slip_onsets += 1;
+            out.bursts += usize::from(vibrates);
+        }
         let (f, v) = (o.force_n.to_f64(), o.vibration.to_f64());
         let df = (f - row.force_n).abs();
         let dv = (v - row.vibration).abs();

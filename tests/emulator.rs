@@ -42,9 +42,23 @@ fn a_whole_session_runs_on(
     (protocol, trials, session): (&str, usize, u32),
 ) -> Duration {
     let path = format!("{}/protocols/{protocol}.json", env!("CARGO_MANIFEST_DIR"));
+    a_session_of_runs_on(Path::new(&path), protocol, dev, out, (trials, session))
+}
+
+/// [`a_whole_session_runs_on`] for the protocol file at `path`, whose id is
+/// `id`.
+fn a_session_of_runs_on(
+    path: &Path,
+    id: &str,
+    dev: &Path,
+    out: &Path,
+    (trials, session): (usize, u32),
+) -> Duration {
     let started = Instant::now();
     let o: Output = Command::new(env!("CARGO_BIN_EXE_frictionlab"))
-        .args(["run", &path, "--participant", "p", "--out"])
+        .arg("run")
+        .arg(path)
+        .args(["--participant", "p", "--out"])
         .arg(out)
         .arg("--device")
         .arg(dev)
@@ -57,7 +71,7 @@ fn a_whole_session_runs_on(
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let log = out.join(format!(
         "logs/study-{}_subject-p_session-{session}_log.jsonl",
-        protocol.replace('-', "")
+        id.replace('-', "")
     ));
     let log = read_log(&log).unwrap();
     assert!(log.ended);
@@ -178,20 +192,40 @@ fn an_emulator_given_a_link_to_an_existing_pty_serves_it_and_keeps_the_link_issu
     drop(slave);
 }
 
-/// Copies bytes both ways between `a` and `b` until `stop` is set.
-fn relay(a: TTYPort, b: TTYPort, stop: &Arc<AtomicBool>) -> Vec<std::thread::JoinHandle<()>> {
+/// Copies bytes both ways between `a` and `b`, each chunk `delay` after it
+/// was read (a link with that much added latency each way), until `stop` is
+/// set.
+fn relay(
+    a: TTYPort,
+    b: TTYPort,
+    delay: Duration,
+    stop: &Arc<AtomicBool>,
+) -> Vec<std::thread::JoinHandle<()>> {
     let one_way = |mut from: TTYPort, mut to: TTYPort, stop: Arc<AtomicBool>| {
-        std::thread::spawn(move || {
+        let (queue, due) = std::sync::mpsc::channel::<(Instant, Vec<u8>)>();
+        let reader = std::thread::spawn(move || {
             let mut buf = [0_u8; 4096];
             while !stop.load(Ordering::Relaxed) {
-                if let Ok(n) = from.read(&mut buf) {
-                    let _ = to.write_all(&buf[..n]);
+                if let Ok(n) = from.read(&mut buf)
+                    && n > 0
+                {
+                    let _ = queue.send((Instant::now() + delay, buf[..n].to_vec()));
                 }
             }
-        })
+        });
+        // Ends when the reader does (the channel closes).
+        let writer = std::thread::spawn(move || {
+            for (at, bytes) in due {
+                spin_sleep::sleep_until(at);
+                let _ = to.write_all(&bytes);
+            }
+        });
+        [reader, writer]
     };
     let (a2, b2) = (a.try_clone_native().unwrap(), b.try_clone_native().unwrap());
-    vec![one_way(a, b2, stop.clone()), one_way(b, a2, stop.clone())]
+    let mut threads = Vec::from(one_way(a, b2, stop.clone()));
+    threads.extend(one_way(b, a2, stop.clone()));
+    threads
 }
 
 /// Issue 13: behind a relay (a pseudo-terminal whose master is copied to
@@ -211,7 +245,7 @@ fn a_session_through_a_pty_relay_opened_2_s_after_the_emulator_completes_issue_1
     relay_master.set_timeout(Duration::from_millis(10)).unwrap();
     let relay_path = relay_slave.name().unwrap();
     let stop = Arc::new(AtomicBool::new(false));
-    let copying = relay(emulator_port, relay_master, &stop);
+    let copying = relay(emulator_port, relay_master, Duration::ZERO, &stop);
     let took = a_whole_session_runs_on(
         Path::new(&relay_path),
         &dir.path().join("results"),
@@ -227,15 +261,35 @@ fn a_session_through_a_pty_relay_opened_2_s_after_the_emulator_completes_issue_1
     eprintln!("session through the relay: {took:?}");
 }
 
-/// Re-renders every stream of a results folder; returns (streams, rows
-/// replayed, largest force difference, largest vibration difference, modes).
-fn rerender_all(out: &Path) -> (usize, usize, f64, f64, Vec<String>) {
+/// What re-rendering a results folder's streams found.
+struct Rerenders {
+    streams: usize,
+    /// Rows replayed.
+    rows: usize,
+    /// Largest force and vibration differences.
+    force: f64,
+    vibration: f64,
+    /// Who rendered (each mode once).
+    modes: Vec<String>,
+    /// Each stream's report.
+    reports: Vec<serde_json::Value>,
+}
+
+/// Re-renders every stream of a results folder.
+fn rerender_all(out: &Path) -> Rerenders {
     let mut streams: Vec<_> = std::fs::read_dir(out.join("streams"))
         .unwrap()
         .map(|e| e.unwrap().path())
         .collect();
     streams.sort();
-    let (mut rows, mut force, mut vibration, mut modes) = (0, 0.0_f64, 0.0_f64, Vec::new());
+    let mut all = Rerenders {
+        streams: streams.len(),
+        rows: 0,
+        force: 0.0,
+        vibration: 0.0,
+        modes: Vec::new(),
+        reports: Vec::new(),
+    };
     for s in &streams {
         let o = Command::new(env!("CARGO_BIN_EXE_frictionlab"))
             .arg("rerender")
@@ -244,18 +298,19 @@ fn rerender_all(out: &Path) -> (usize, usize, f64, f64, Vec<String>) {
             .unwrap();
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-        rows +=
+        all.rows +=
             usize::try_from(r["rows"].as_u64().unwrap() - r["skipped"].as_u64().unwrap()).unwrap();
-        force = force.max(r["max_force_diff_n"].as_f64().unwrap());
-        vibration = vibration.max(r["max_vibration_diff"].as_f64().unwrap());
+        all.force = all.force.max(r["max_force_diff_n"].as_f64().unwrap());
+        all.vibration = all.vibration.max(r["max_vibration_diff"].as_f64().unwrap());
         for m in r["modes"].as_array().unwrap() {
             let m = m.as_str().unwrap().to_owned();
-            if !modes.contains(&m) {
-                modes.push(m);
+            if !all.modes.contains(&m) {
+                all.modes.push(m);
             }
         }
+        all.reports.push(r);
     }
-    (streams.len(), rows, force, vibration, modes)
+    all
 }
 
 /// Issue 15: the three quick protocols run end to end on an emulator that
@@ -291,13 +346,14 @@ fn sessions_on_an_on_board_emulator_complete_and_rerender_bit_exact_issue_15() {
                 assert_eq!(e.rate_hz, 5000.0, "the device's loop rate");
             }
         }
-        let (streams, rows, force, vibration, modes) = rerender_all(&out);
+        let r = rerender_all(&out);
         eprintln!(
-            "{protocol} on board: {streams} streams, {rows} rows re-rendered, max |dF| {force} N, max |dvib| {vibration}, modes {modes:?}"
+            "{protocol} on board: {} streams, {} rows re-rendered, max |dF| {} N, max |dvib| {}, modes {:?}",
+            r.streams, r.rows, r.force, r.vibration, r.modes
         );
-        assert!(rows > 10_000, "{rows} rows re-rendered");
-        assert_eq!((force, vibration), (0.0, 0.0), "bit-exact");
-        assert_eq!(modes, ["on_board"]);
+        assert!(r.rows > 10_000, "{} rows re-rendered", r.rows);
+        assert_eq!((r.force, r.vibration), (0.0, 0.0), "bit-exact");
+        assert_eq!(r.modes, ["on_board"]);
     }
     emu.kill().unwrap();
     emu.wait().unwrap();
@@ -315,11 +371,170 @@ fn a_version_1_device_is_rendered_by_the_host_loop_and_its_streams_rerender_issu
     a_whole_session_runs_on(&dev, &out, MAGNITUDE_QUICK);
     emu.kill().unwrap();
     emu.wait().unwrap();
-    let (streams, rows, force, vibration, modes) = rerender_all(&out);
+    let r = rerender_all(&out);
     eprintln!(
-        "host loop: {streams} streams, {rows} rows re-rendered, max |dF| {force} N, max |dvib| {vibration}"
+        "host loop: {} streams, {} rows re-rendered, max |dF| {} N, max |dvib| {}",
+        r.streams, r.rows, r.force, r.vibration
     );
-    assert_eq!(modes, ["host_loop"]);
-    assert!(rows > 10_000, "{rows} rows re-rendered");
-    assert!(force < 1e-9, "{force}");
+    assert_eq!(r.modes, ["host_loop"]);
+    assert!(r.rows > 10_000, "{} rows re-rendered", r.rows);
+    assert!(r.force < 1e-9, "{}", r.force);
+}
+
+/// magnitude-quick's tactile display alone (seed 001's stick-slip driving
+/// its 600 Hz burst) with 5 s of exploration per trial, 6 trials: 30 s of
+/// stick-slip per session, about 450 transitions. Written into `dir`.
+fn stick_slip_protocol(dir: &Path) -> std::path::PathBuf {
+    let quick = format!(
+        "{}/protocols/magnitude-quick.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let mut p: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(quick).unwrap()).unwrap();
+    p["id"] = "stick-slip-latency".into();
+    p["repetitions"] = 2.into();
+    p["design"]["exploration_s"] = 5.0.into();
+    let tactile = p["design"]["sets"][0].clone();
+    assert_eq!(tactile["display"], "tactile");
+    p["design"]["sets"] = serde_json::json!([tactile]);
+    p.as_object_mut().unwrap().remove("$schema");
+    let path = dir.join("stick-slip-latency.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&p).unwrap()).unwrap();
+    path
+}
+
+/// Seed 001's stimulus in a session of [`stick_slip_protocol`], counted by
+/// re-rendering every stream.
+#[derive(Debug)]
+struct StickSlip {
+    /// Stick-to-slip transitions per second of exploration.
+    transitions_per_s: f64,
+    /// Bursts the model started.
+    bursts: usize,
+    modes: Vec<String>,
+    bit_exact: bool,
+    /// Device ticks whose telemetry never arrived (on board).
+    telemetry_gaps: Option<u64>,
+}
+
+/// Runs a session of `protocol` on the emulator at `dev`, through a relay
+/// that adds `latency` each way (none: directly), into `out`.
+fn stick_slip_through(
+    protocol: &Path,
+    dev: &Path,
+    latency: Option<Duration>,
+    out: &Path,
+) -> StickSlip {
+    let run = |dev: &Path| {
+        a_session_of_runs_on(protocol, "stick-slip-latency", dev, out, (6, 1));
+    };
+    if let Some(latency) = latency {
+        let emulator_port = serialport::new(dev.to_string_lossy(), 115_200)
+            .timeout(Duration::from_millis(10))
+            .open_native()
+            .unwrap();
+        let (mut relay_master, relay_slave) = pty_pair();
+        relay_master.set_timeout(Duration::from_millis(10)).unwrap();
+        let stop = Arc::new(AtomicBool::new(false));
+        let copying = relay(emulator_port, relay_master, latency, &stop);
+        run(Path::new(&relay_slave.name().unwrap()));
+        stop.store(true, Ordering::Relaxed);
+        for t in copying {
+            t.join().unwrap();
+        }
+    } else {
+        run(dev);
+    }
+    let r = rerender_all(out);
+    let count = |key: &str| -> u64 { r.reports.iter().map(|r| r[key].as_u64().unwrap()).sum() };
+    let seconds: f64 = r
+        .reports
+        .iter()
+        .map(|r| r["replayed_s"].as_f64().unwrap())
+        .sum();
+    let log = std::fs::read_to_string(
+        out.join("logs/study-sticksliplatency_subject-p_session-1_log.jsonl"),
+    )
+    .unwrap();
+    let stats = log
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .find(|l| l["type"] == "loop")
+        .unwrap();
+    #[expect(clippy::cast_precision_loss, reason = "small counts")]
+    StickSlip {
+        transitions_per_s: count("slip_onsets") as f64 / seconds,
+        bursts: usize::try_from(count("bursts")).unwrap(),
+        modes: r.modes,
+        bit_exact: r.force == 0.0 && r.vibration == 0.0,
+        telemetry_gaps: stats["telemetry_gaps"].as_u64(),
+    }
+}
+
+/// Issue 15: behind a link with 2 ms of added latency each way (a USB
+/// round trip), the host loop cannot render seed 001's stick-slip as the
+/// seed does: it steps the 5 kHz model on positions a 1 kHz device sent
+/// 2 ms ago, and the device applies the result 2 ms later still. On board
+/// the model closes its loop on the device, and the stimulus is what it is
+/// without the relay.
+#[test]
+fn a_link_with_2_ms_latency_degrades_the_host_loop_s_stick_slip_but_not_the_on_board_one_issue_15()
+{
+    let dir = tempfile::tempdir().unwrap();
+    let protocol = stick_slip_protocol(dir.path());
+    let latency = Some(Duration::from_millis(2));
+    let on_board_dev = dir.path().join("on-board");
+    let mut on_board = common::emulator_with(&on_board_dev, &["--on-board"]);
+    let direct = stick_slip_through(&protocol, &on_board_dev, None, &dir.path().join("direct"));
+    let relayed = stick_slip_through(
+        &protocol,
+        &on_board_dev,
+        latency,
+        &dir.path().join("relayed"),
+    );
+    on_board.kill().unwrap();
+    on_board.wait().unwrap();
+    let host_dev = dir.path().join("v1");
+    let mut v1 = common::emulator(&host_dev);
+    let host = stick_slip_through(&protocol, &host_dev, latency, &dir.path().join("host"));
+    v1.kill().unwrap();
+    v1.wait().unwrap();
+    for (name, run) in [
+        ("on board, direct", &direct),
+        ("on board, 2 ms each way", &relayed),
+        ("host loop, 2 ms each way", &host),
+    ] {
+        eprintln!(
+            "{name}: {:.2} transitions/s, {} bursts started",
+            run.transitions_per_s, run.bursts
+        );
+    }
+
+    // On board, latency or not, every tick rendered is the model on the
+    // device's own motion, bit for bit, and every tick reached the host.
+    for run in [&direct, &relayed] {
+        assert_eq!(run.modes, ["on_board"]);
+        assert!(run.bit_exact, "{run:?}");
+        assert_eq!(run.telemetry_gaps, Some(0), "{run:?}");
+    }
+    // The transition rate through the relay is the direct one, within the
+    // spread between sessions (stick-slip onsets are sensitive to the
+    // participant's timing: over five pairs of runs the ratio was
+    // 0.89-1.07).
+    let ratio = relayed.transitions_per_s / direct.transitions_per_s;
+    assert!(
+        (0.75..1.33).contains(&ratio),
+        "on board through the relay / direct: {ratio}"
+    );
+    // The host loop renders its own model (its stream re-renders exactly),
+    // but on stale, 1 kHz positions: the stick-slip has far more
+    // transitions (over five runs 1.30-1.54 times the on-board rate's).
+    assert_eq!(host.modes, ["host_loop"]);
+    assert!(host.bit_exact, "{host:?}");
+    let on_board = direct.transitions_per_s.max(relayed.transitions_per_s);
+    assert!(
+        host.transitions_per_s > 1.15 * on_board,
+        "host loop {} vs on board {on_board} transitions/s",
+        host.transitions_per_s
+    );
 }

@@ -1,5 +1,6 @@
 //! The wire protocol's frame decoder on split, merged, truncated and
-//! corrupted input (no hardware: bytes only).
+//! corrupted input, over every message of versions 1 and 2, and the
+//! on-board device fed a corrupted upload (no hardware: bytes only).
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -8,13 +9,82 @@
 #![allow(
     clippy::cast_possible_truncation,
     clippy::cast_sign_loss,
-    reason = "positions in a test stream from fractions in [0, 1)"
+    reason = "positions in a test stream from fractions in [0, 1); the device's f32"
 )]
 
-use frictionlab::device::wire::{Decoder, MAX_FRAME, Message, frame};
+use frictionlab::device::wire::{Decoder, MAX_FRAME, Message, frame, status};
+use frictionlab::friction::{ForceLimit, Input, ModelParams};
+use frictionlab_core::onboard::{Board, upload};
+use frictionlab_core::render::{RAMP_S, Renderer};
 use proptest::prelude::*;
 
 fn message() -> impl Strategy<Value = Message> {
+    prop_oneof![v1_message(), v2_message()]
+}
+
+/// The messages wire protocol version 2 added.
+fn v2_message() -> impl Strategy<Value = Message> {
+    let f = -1e4_f32..1e4;
+    prop_oneof![
+        (any::<u16>(), any::<u16>(), any::<u8>()).prop_map(
+            |(models, loop_rate_hz, float_bytes)| {
+                Message::OnBoard {
+                    models,
+                    loop_rate_hz,
+                    float_bytes,
+                }
+            }
+        ),
+        (
+            any::<u8>(),
+            any::<u8>(),
+            proptest::array::uniform5(-1e6_f64..1e6)
+        )
+            .prop_map(|(kind, first, values)| {
+                Message::Upload {
+                    kind,
+                    first,
+                    values,
+                }
+            }),
+        (any::<u8>(), any::<u8>(), any::<u8>(), any::<u16>()).prop_map(
+            |(render, kind, count, check)| Message::Select {
+                render,
+                kind,
+                count,
+                check,
+            }
+        ),
+        any::<u8>().prop_map(|render| Message::Clear { render }),
+        any::<u16>().prop_map(|every| Message::SetTelemetry { every }),
+        (
+            any::<u32>(),
+            [f.clone(), f.clone(), f.clone(), -1.0_f32..1.0],
+            any::<u8>(),
+            any::<u8>()
+        )
+            .prop_map(|(tick, [x_m, v_m_s, force_n, vibration], render, flags)| {
+                Message::Telemetry {
+                    tick,
+                    x_m,
+                    v_m_s,
+                    force_n,
+                    vibration,
+                    render,
+                    flags,
+                }
+            }),
+        (any::<u32>(), any::<u32>(), any::<u32>()).prop_map(
+            |(ticks, longest_loop_us, missed_ticks)| Message::LoopReport {
+                ticks,
+                longest_loop_us,
+                missed_ticks,
+            }
+        ),
+    ]
+}
+
+fn v1_message() -> impl Strategy<Value = Message> {
     let f = -1e4_f32..1e4;
     prop_oneof![
         any::<u16>().prop_map(|version| Message::Hello { version }),
@@ -178,6 +248,94 @@ proptest! {
         d.feed(&bytes, |_| {});
         let s = d.stats();
         prop_assert!(s.frames + s.resyncs() <= bytes.len() as u64);
+    }
+}
+
+/// Flips bytes of `stream` at the fractions `flips` of its length.
+fn corrupt(stream: &mut [u8], flips: &[(f64, u8)]) {
+    for &(at, mask) in flips {
+        let pos = (at * stream.len() as f64) as usize % stream.len();
+        stream[pos] ^= mask;
+    }
+}
+
+/// The position and velocity a board senses at tick `k`: a 2 Hz stroke of
+/// 1 cm, at 5 kHz.
+fn stroke(k: u32) -> Input<f32> {
+    let t = f64::from(k) / 5000.0;
+    let w = std::f64::consts::TAU * 2.0;
+    Input {
+        x_m: (0.01 * (w * t).sin()) as f32,
+        v_m_s: (0.01 * w * (w * t).cos()) as f32,
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 200, ..ProptestConfig::default() })]
+
+    /// Issue 15: a board rendering model B is sent model A of the same kind
+    /// over a link that corrupts bytes. It renders A exactly when every
+    /// part of A arrived, and otherwise keeps rendering B: never a model
+    /// made of parts of both, never one with a part missing.
+    #[test]
+    fn a_corrupted_upload_renders_the_model_sent_or_keeps_the_last_never_a_wrong_one(
+        which in 0_usize..64,
+        scale in 1.05_f64..1.5,
+        flips in proptest::collection::vec((0.0_f64..1.0, 1_u8..=255), 0..4),
+    ) {
+        // Every model a board renders ("none" is a `Clear`, not an upload).
+        let names: Vec<&str> = ModelParams::NAMES.into_iter().filter(|&n| n != "none").collect();
+        let name = names[which % names.len()];
+        let b = ModelParams::default_for(name).unwrap();
+        let mut flat = b.flatten();
+        let n = flat.len;
+        // A differs from B in every value.
+        for v in &mut flat.values[..n] {
+            *v *= scale;
+        }
+        let a = ModelParams::unflatten(flat.kind, flat.used()).unwrap();
+        let limit = ForceLimit::new(9.48_f32).unwrap();
+        let mut board = Board::<f32>::new(5000, limit);
+        let mut reference = Renderer::<f32>::new(limit, RAMP_S as f32);
+        prop_assume!(reference.clone().select(Some(&a), 0.0), "A is a valid {}", name);
+
+        let mut b_messages = Vec::new();
+        upload(&b, 1, |m| b_messages.push(m));
+        let mut a_messages = Vec::new();
+        upload(&a, 2, |m| a_messages.push(m));
+        let mut stream: Vec<u8> = a_messages.iter().flat_map(frame).collect();
+        corrupt(&mut stream, &flips);
+        let arrived = decode_all(&mut Decoder::new(), &[&stream]);
+        let all_of_a = a_messages.iter().all(|m| arrived.contains(m));
+
+        // One message per tick, then 40 quiet ticks (8 ms: within the
+        // watchdog); the reference selects what the board's telemetry says
+        // it selected.
+        let mut selected_a = false;
+        let messages = b_messages.iter().chain(&arrived).map(Some).chain(std::iter::repeat_n(None, 40));
+        for (k, m) in (0_u32..).zip(messages) {
+            if let Some(m) = m {
+                board.receive(m);
+            }
+            let input = stroke(k);
+            let drive = board.tick(input, false, false);
+            let Some(Message::Telemetry { render, flags, .. }) = drive.telemetry else {
+                panic!("telemetry every tick");
+            };
+            if flags & status::SELECTED != 0 && flags & status::REFUSED == 0 {
+                let model = match render {
+                    1 => &b,
+                    2 => &a,
+                    other => panic!("render {other} was never sent"),
+                };
+                selected_a |= render == 2;
+                reference.select(Some(model), input.x_m);
+            }
+            let expected = reference.step(board.dt(), input);
+            prop_assert_eq!(drive.force_n.to_bits(), expected.force_n.to_bits(), "tick {}", k);
+            prop_assert_eq!(drive.vibration.to_bits(), expected.vibration.to_bits(), "tick {}", k);
+        }
+        prop_assert_eq!(selected_a, all_of_a, "A rendered exactly when all of it arrived");
     }
 }
 
