@@ -61,7 +61,6 @@ impl Default for Apparatus {
 #[derive(Debug, Clone)]
 pub struct SimDevice {
     p: Apparatus,
-    mass_kg: f64,
     step: StepParams,
     x: f64,
     v: f64,
@@ -71,9 +70,13 @@ pub struct SimDevice {
     rendered: Option<Friction>,
     rendered_params: Option<ModelParams>,
     physical: Option<Friction>,
-    /// `dt` for which `alpha` was computed, and the velocity filter's
-    /// coefficient `exp(-2 pi f_c dt)`.
-    filter: (f64, f64),
+    /// `dt` for which the filter was computed, the velocity filter's
+    /// coefficient `exp(-2 pi f_c dt)`, and `1 / dt`.
+    filter: (f64, f64, f64),
+    /// `1 / mass` (apparatus and hand) and `1 / encoder resolution`: a step multiplies (a
+    /// division held up a fifth of a simulated session's device step).
+    inv_mass: f64,
+    inv_encoder: f64,
 }
 
 impl SimDevice {
@@ -84,9 +87,9 @@ impl SimDevice {
     #[must_use]
     pub fn new(p: Apparatus, hand_mass_kg: f64, step: StepParams) -> Self {
         let limit = step.force_limit.newtons().min(p.max_force_n);
+        let mass_kg = p.mass_kg + hand_mass_kg.max(0.0);
         SimDevice {
             p,
-            mass_kg: p.mass_kg + hand_mass_kg.max(0.0),
             step: StepParams {
                 force_limit: ForceLimit::new(limit).unwrap_or_default(),
                 ..step
@@ -99,7 +102,9 @@ impl SimDevice {
             rendered: None,
             rendered_params: None,
             physical: None,
-            filter: (0.0, 0.0),
+            filter: (0.0, 0.0, 0.0),
+            inv_mass: 1.0 / mass_kg,
+            inv_encoder: 1.0 / p.encoder_m,
         }
     }
 
@@ -142,7 +147,7 @@ impl SimDevice {
     }
 
     fn quantize(&self, x: f64) -> f64 {
-        (x / self.p.encoder_m).round() * self.p.encoder_m
+        (x * self.inv_encoder).round() * self.p.encoder_m
     }
 
     /// Advances by `dt` with the hand pushing with `hand_force_n`; the
@@ -197,10 +202,10 @@ impl SimDevice {
     /// Measured position and estimated velocity.
     fn sense(&mut self, dt: f64) -> Input {
         let measured = self.quantize(self.x);
-        let raw_v = (measured - self.x_measured) / dt;
         if self.filter.0 != dt {
-            self.filter = (dt, self.step.velocity_alpha(dt));
+            self.filter = (dt, self.step.velocity_alpha(dt), 1.0 / dt);
         }
+        let raw_v = (measured - self.x_measured) * self.filter.2;
         let alpha = self.filter.1;
         self.v_estimate = alpha * self.v_estimate + (1.0 - alpha) * raw_v;
         self.x_measured = measured;
@@ -246,7 +251,7 @@ impl SimDevice {
             } else {
                 self.v.signum()
             };
-            let v_new = self.v + (net - dir * fs) / self.mass_kg * dt;
+            let v_new = self.v + (net - dir * fs) * self.inv_mass * dt;
             if v_new * dir <= 0.0 && net.abs() <= fs {
                 self.stuck = true;
                 self.v = 0.0;
