@@ -192,9 +192,29 @@ fn an_emulator_given_a_link_to_an_existing_pty_serves_it_and_keeps_the_link_issu
     drop(slave);
 }
 
+/// Runs `session` on a relay to the device at `dev`: a new pseudo-terminal
+/// whose bytes are copied both ways to the device's port, each chunk
+/// `delay` after it was read (a link with that much added latency each
+/// way). The relay stops when `session` returns.
+fn through_relay<T>(dev: &Path, delay: Duration, session: impl FnOnce(&Path) -> T) -> T {
+    let device_port = serialport::new(dev.to_string_lossy(), 115_200)
+        .timeout(Duration::from_millis(10))
+        .open_native()
+        .unwrap_or_else(|e| panic!("{}: {e}", dev.display()));
+    let (mut relay_master, relay_slave) = pty_pair();
+    relay_master.set_timeout(Duration::from_millis(10)).unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let copying = relay(device_port, relay_master, delay, &stop);
+    let out = session(Path::new(&relay_slave.name().unwrap()));
+    stop.store(true, Ordering::Relaxed);
+    for t in copying {
+        t.join().unwrap();
+    }
+    out
+}
+
 /// Copies bytes both ways between `a` and `b`, each chunk `delay` after it
-/// was read (a link with that much added latency each way), until `stop` is
-/// set.
+/// was read, until `stop` is set.
 fn relay(
     a: TTYPort,
     b: TTYPort,
@@ -237,25 +257,9 @@ fn a_session_through_a_pty_relay_opened_2_s_after_the_emulator_completes_issue_1
     let dev = dir.path().join("dev");
     let mut emu = common::emulator(&dev);
     std::thread::sleep(Duration::from_secs(2));
-    let emulator_port = serialport::new(dev.to_string_lossy(), 115_200)
-        .timeout(Duration::from_millis(10))
-        .open_native()
-        .unwrap_or_else(|e| panic!("the emulator's port 2 s after it started: {e}"));
-    let (mut relay_master, relay_slave) = pty_pair();
-    relay_master.set_timeout(Duration::from_millis(10)).unwrap();
-    let relay_path = relay_slave.name().unwrap();
-    let stop = Arc::new(AtomicBool::new(false));
-    let copying = relay(emulator_port, relay_master, Duration::ZERO, &stop);
-    let took = a_whole_session_runs_on(
-        Path::new(&relay_path),
-        &dir.path().join("results"),
-        MAGNITUDE_QUICK,
-    );
-    stop.store(true, Ordering::Relaxed);
-    for t in copying {
-        t.join().unwrap();
-    }
-    drop(relay_slave);
+    let took = through_relay(&dev, Duration::ZERO, |relay| {
+        a_whole_session_runs_on(relay, &dir.path().join("results"), MAGNITUDE_QUICK)
+    });
     emu.kill().unwrap();
     emu.wait().unwrap();
     eprintln!("session through the relay: {took:?}");
@@ -428,22 +432,9 @@ fn stick_slip_through(
     let run = |dev: &Path| {
         a_session_of_runs_on(protocol, "stick-slip-latency", dev, out, (6, 1));
     };
-    if let Some(latency) = latency {
-        let emulator_port = serialport::new(dev.to_string_lossy(), 115_200)
-            .timeout(Duration::from_millis(10))
-            .open_native()
-            .unwrap();
-        let (mut relay_master, relay_slave) = pty_pair();
-        relay_master.set_timeout(Duration::from_millis(10)).unwrap();
-        let stop = Arc::new(AtomicBool::new(false));
-        let copying = relay(emulator_port, relay_master, latency, &stop);
-        run(Path::new(&relay_slave.name().unwrap()));
-        stop.store(true, Ordering::Relaxed);
-        for t in copying {
-            t.join().unwrap();
-        }
-    } else {
-        run(dev);
+    match latency {
+        Some(latency) => through_relay(dev, latency, run),
+        None => run(dev),
     }
     let r = rerender_all(out);
     let count = |key: &str| -> u64 { r.reports.iter().map(|r| r[key].as_u64().unwrap()).sum() };
