@@ -417,6 +417,9 @@ struct StickSlip {
     bursts: usize,
     modes: Vec<String>,
     bit_exact: bool,
+    /// The reports of the streams that did not re-render exactly (shown
+    /// when a test fails).
+    inexact: Vec<serde_json::Value>,
     /// Device ticks whose telemetry never arrived (on board).
     telemetry_gaps: Option<u64>,
 }
@@ -458,6 +461,12 @@ fn stick_slip_through(
         bursts: usize::try_from(count("bursts")).unwrap(),
         modes: r.modes,
         bit_exact: r.force == 0.0 && r.vibration == 0.0,
+        inexact: r
+            .reports
+            .iter()
+            .filter(|r| r["bit_exact"] != true)
+            .cloned()
+            .collect(),
         telemetry_gaps: stats["telemetry_gaps"].as_u64(),
     }
 }
