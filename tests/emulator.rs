@@ -514,7 +514,7 @@ fn a_link_with_2_ms_latency_degrades_the_host_loop_s_stick_slip_but_not_the_on_b
     // device's own motion, bit for bit, and every tick reached the host.
     for run in [&direct, &relayed] {
         assert_eq!(run.modes, ["on_board"]);
-        assert!(run.bit_exact, "{run:?}");
+        assert!(run.bit_exact, "{run:?}: {:#?}", run.inexact);
         assert_eq!(run.telemetry_gaps, Some(0), "{run:?}");
     }
     // The transition rate through the relay is the direct one, within the
@@ -530,7 +530,7 @@ fn a_link_with_2_ms_latency_degrades_the_host_loop_s_stick_slip_but_not_the_on_b
     // but on stale, 1 kHz positions: the stick-slip has far more
     // transitions (over five runs 1.30-1.54 times the on-board rate's).
     assert_eq!(host.modes, ["host_loop"]);
-    assert!(host.bit_exact, "{host:?}");
+    assert!(host.bit_exact, "{host:?}: {:#?}", host.inexact);
     let on_board = direct.transitions_per_s.max(relayed.transitions_per_s);
     assert!(
         host.transitions_per_s > 1.15 * on_board,
