@@ -22,6 +22,12 @@
 //! position, as the haptic loop and the on-board `Board` do; on the
 //! simulated device, at the previous row's position (where the device was
 //! when the model was set).
+//!
+//! # The watchdog
+//! Where a row is marked `watchdog` the device rendered nothing (no message
+//! from the host for 20 ms) while its model kept stepping, so an on-board
+//! row is expected to show force and vibration 0 there. A host-loop row
+//! shows what the host sent, which the replay renders as usual.
 
 use std::path::{Path, PathBuf};
 
@@ -49,6 +55,9 @@ pub struct Row {
     pub render: usize,
     /// Whether a render took effect at this row.
     pub selected: bool,
+    /// Whether the device's watchdog had tripped at this row (column
+    /// `watchdog`, absent in streams from before it was recorded: 0).
+    pub watchdog: bool,
 }
 
 /// What a re-render found.
@@ -75,6 +84,12 @@ pub struct Rerendered {
     /// The row (0-based, after the header) of the largest force
     /// difference, if any differs.
     pub worst_row: Option<usize>,
+    /// The row of the largest vibration difference, if any differs.
+    pub worst_vibration_row: Option<usize>,
+    /// Replayed rows where the device reported its watchdog tripped. On
+    /// board it rendered nothing there (the model kept stepping), so the
+    /// replay expects force and vibration 0 at those rows.
+    pub watchdog_rows: usize,
     /// Whether every replayed row matches exactly (the same number; 0 and
     /// -0 alike).
     pub bit_exact: bool,
@@ -172,6 +187,7 @@ pub fn parse_stream(file: &str, text: &str) -> Result<Vec<Row>, Problem> {
         "render",
         "selected",
     ];
+    const OPTIONAL: &str = "watchdog";
     let mut lines = text.lines();
     let header = lines.next().unwrap_or_default();
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
@@ -186,26 +202,33 @@ pub fn parse_stream(file: &str, text: &str) -> Result<Vec<Row>, Problem> {
             })
         })
         .collect::<Result<_, _>>()?;
+    let optional = names.iter().position(|n| *n == OPTIONAL);
     let mut rows = Vec::new();
     for (i, line) in lines.enumerate() {
         if line.trim().is_empty() {
             continue;
         }
         let cells: Vec<&str> = line.split(',').collect();
-        let mut v = [0.0; 7];
-        for (k, &c) in at.iter().enumerate() {
+        let number = |c: usize, name: &str| {
             let cell = cells.get(c).map(|s| s.trim()).unwrap_or_default();
-            v[k] = cell
-                .parse::<f64>()
+            cell.parse::<f64>()
                 .ok()
                 .filter(|x| x.is_finite())
                 .ok_or_else(|| {
                     Problem::new(
                         format!("{file}: {}:{}", i + 2, c + 1),
-                        format!("column '{}': '{cell}' is not a finite number", COLUMNS[k]),
+                        format!("column '{name}': '{cell}' is not a finite number"),
                     )
-                })?;
+                })
+        };
+        let mut v = [0.0; 7];
+        for (k, &c) in at.iter().enumerate() {
+            v[k] = number(c, COLUMNS[k])?;
         }
+        let watchdog = match optional {
+            Some(c) => number(c, OPTIONAL)? != 0.0,
+            None => false,
+        };
         #[expect(
             clippy::cast_possible_truncation,
             clippy::cast_sign_loss,
@@ -227,6 +250,7 @@ pub fn parse_stream(file: &str, text: &str) -> Result<Vec<Row>, Problem> {
             vibration: v[4],
             render,
             selected: v[6] != 0.0,
+            watchdog,
         });
     }
     Ok(rows)
@@ -246,6 +270,8 @@ pub fn rerender(rows: &[Row], entries: &[RenderEntry]) -> Rerendered {
         max_force_diff_n: 0.0,
         max_vibration_diff: 0.0,
         worst_row: None,
+        worst_vibration_row: None,
+        watchdog_rows: 0,
         bit_exact: true,
         replayed_s: 0.0,
         slip_onsets: 0,
@@ -315,7 +341,17 @@ fn replay<T: Real>(rows: &[Row], entries: &[RenderEntry], start: usize, out: &mu
             out.slip_onsets += 1;
             out.bursts += usize::from(vibrates);
         }
-        let (f, v) = (o.force_n.to_f64(), o.vibration.to_f64());
+        // On board a tripped watchdog zeroes what the device renders.
+        let zeroed = row.watchdog
+            && entries
+                .get(row.render)
+                .is_some_and(|e| e.mode == RenderMode::OnBoard);
+        out.watchdog_rows += usize::from(row.watchdog);
+        let (f, v) = if zeroed {
+            (0.0, 0.0)
+        } else {
+            (o.force_n.to_f64(), o.vibration.to_f64())
+        };
         let df = (f - row.force_n).abs();
         let dv = (v - row.vibration).abs();
         if df != 0.0 || dv != 0.0 {
@@ -325,6 +361,9 @@ fn replay<T: Real>(rows: &[Row], entries: &[RenderEntry], start: usize, out: &mu
             out.max_force_diff_n = df;
             out.worst_row = Some(i);
         }
-        out.max_vibration_diff = out.max_vibration_diff.max(dv);
+        if dv > out.max_vibration_diff {
+            out.max_vibration_diff = dv;
+            out.worst_vibration_row = Some(i);
+        }
     }
 }

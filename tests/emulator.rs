@@ -422,6 +422,9 @@ struct StickSlip {
     inexact: Vec<serde_json::Value>,
     /// Device ticks whose telemetry never arrived (on board).
     telemetry_gaps: Option<u64>,
+    /// Replayed rows where the device reported its watchdog tripped (a
+    /// stall of 20 ms on the link, which a loaded machine can cause).
+    watchdog_rows: u64,
 }
 
 /// Runs a session of `protocol` on the emulator at `dev`, through a relay
@@ -468,6 +471,7 @@ fn stick_slip_through(
             .cloned()
             .collect(),
         telemetry_gaps: stats["telemetry_gaps"].as_u64(),
+        watchdog_rows: count("watchdog_rows"),
     }
 }
 
@@ -505,13 +509,15 @@ fn a_link_with_2_ms_latency_degrades_the_host_loop_s_stick_slip_but_not_the_on_b
         ("host loop, 2 ms each way", &host),
     ] {
         eprintln!(
-            "{name}: {:.2} transitions/s, {} bursts started",
-            run.transitions_per_s, run.bursts
+            "{name}: {:.2} transitions/s, {} bursts started, {} rows under the device's watchdog",
+            run.transitions_per_s, run.bursts, run.watchdog_rows
         );
     }
 
     // On board, latency or not, every tick rendered is the model on the
-    // device's own motion, bit for bit, and every tick reached the host.
+    // device's own motion, bit for bit (rows where a stalled link tripped
+    // the device's watchdog are marked, and rendered nothing), and every
+    // tick reached the host.
     for run in [&direct, &relayed] {
         assert_eq!(run.modes, ["on_board"]);
         assert!(run.bit_exact, "{run:?}: {:#?}", run.inexact);

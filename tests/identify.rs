@@ -410,7 +410,7 @@ fn sessions_record_each_trials_device_stream_and_identify_reads_it() {
         let mut lines = text.lines();
         assert_eq!(
             lines.next(),
-            Some("t_s,x_m,v_m_s,force_n,vibration,render,selected")
+            Some("t_s,x_m,v_m_s,force_n,vibration,render,selected,watchdog")
         );
         let rows: Vec<Vec<f64>> = lines
             .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())

@@ -108,3 +108,102 @@ fn a_damaged_stream_or_one_without_its_log_is_refused_with_its_place() {
         );
     }
 }
+
+/// A device rendering on board keeps stepping its model while its watchdog
+/// holds the output at 0 (the host silent for 20 ms, as a stalled link
+/// under load can be), and re-selects a model the host sends again. Its
+/// stream, with both marked, re-renders exactly; with the watchdog marks
+/// removed it does not, so the marks are what make the audit exact.
+#[test]
+fn an_on_board_stream_with_a_tripped_watchdog_and_a_resent_model_re_renders_exactly() {
+    use frictionlab::friction::{Float, ForceLimit, Input, ModelParams};
+    use frictionlab::protocol::engine::{RenderEntry, RenderMode};
+    use frictionlab::rerender::{Row, rerender};
+    use frictionlab_core::onboard::{Board, upload};
+    use frictionlab_core::wire::{Message, status};
+
+    const RATE_HZ: u16 = 5000;
+    let model = ModelParams::default_for("stick-slip-tactile").unwrap();
+    let mut board = Board::<f32>::new(RATE_HZ, ForceLimit::new(8.0).unwrap());
+    let send_model = |board: &mut Board<f32>| upload(&model, 1, |m| board.receive(&m));
+    send_model(&mut board);
+    let dt = 1.0 / f64::from(RATE_HZ);
+    // The host goes silent from 0.60 s to 0.66 s (its heartbeats are 1 ms
+    // apart otherwise) and sends the model again at 1.4 s.
+    let silent = 3000..3300;
+    let mut rows = Vec::new();
+    for k in 0..10_000_u32 {
+        if k % 5 == 0 && !silent.contains(&k) {
+            board.receive(&Message::Heartbeat { seq: k });
+        }
+        if k == 7000 {
+            send_model(&mut board);
+        }
+        // A stroke back and forth, peaking at 0.094 m/s.
+        let t = f64::from(k) * dt;
+        let w = std::f64::consts::PI;
+        #[expect(clippy::cast_possible_truncation, reason = "the device's f32")]
+        let input = Input {
+            x_m: (0.03 * (w * t).sin()) as f32,
+            v_m_s: (0.03 * w * (w * t).cos()) as f32,
+        };
+        let Some(Message::Telemetry {
+            x_m,
+            v_m_s,
+            force_n,
+            vibration,
+            flags,
+            ..
+        }) = board.tick(input, false, false).telemetry
+        else {
+            panic!("telemetry every tick");
+        };
+        rows.push(Row {
+            t_s: t,
+            x_m: f64::from(x_m),
+            v_m_s: f64::from(v_m_s),
+            force_n: f64::from(force_n),
+            vibration: f64::from(vibration),
+            render: 0,
+            selected: flags & status::SELECTED != 0,
+            watchdog: flags & status::WATCHDOG != 0,
+        });
+    }
+    let entries = [RenderEntry {
+        model: Some(model.clone()),
+        mode: RenderMode::OnBoard,
+        float: Float::F32,
+        rate_hz: f64::from(RATE_HZ),
+        ramp_s: frictionlab_core::render::RAMP_S,
+        force_limit_n: 8.0,
+    }];
+    assert_eq!(
+        rows.iter().filter(|r| r.selected).count(),
+        2,
+        "select, resend"
+    );
+    let r = rerender(&rows, &entries);
+    assert!(r.bit_exact, "{r:?}");
+    assert!(r.bursts >= 10, "{r:?}");
+    // The last heartbeat before the silence is at tick 2995; the watchdog
+    // trips once more than 100 ticks (20 ms) pass without one, at tick
+    // 3096, and holds until the heartbeat at tick 3300: 204 ticks.
+    assert_eq!(r.watchdog_rows, 204, "{r:?}");
+    assert!(
+        rows.iter()
+            .filter(|r| r.watchdog)
+            .all(|r| r.vibration == 0.0),
+        "nothing rendered while the watchdog holds"
+    );
+
+    for row in &mut rows {
+        row.watchdog = false;
+    }
+    let unmarked = rerender(&rows, &entries);
+    assert!(!unmarked.bit_exact, "{unmarked:?}");
+    let worst = unmarked.worst_vibration_row.unwrap();
+    assert!(
+        silent.contains(&u32::try_from(worst).unwrap()),
+        "{unmarked:?}"
+    );
+}

@@ -88,6 +88,10 @@ pub struct Tick {
     /// Whether a render took effect at this tick (its model starting at
     /// rest at this tick's position).
     pub selected: bool,
+    /// Whether the device reported its watchdog tripped (it rendered
+    /// nothing): on board, at this tick; in the host loop, at the device's
+    /// last sample.
+    pub watchdog: bool,
     /// Who rendered this tick.
     pub mode: Mode,
 }
@@ -357,6 +361,7 @@ fn run(
     let mut renderer = Renderer::<f64>::new(limit, RAMP_S);
     let mut host_render = 0_u32;
     let mut host_selected = false;
+    let mut device_watchdog = false;
     let mut board = OnBoardState::new();
     let mut was_connected = false;
     let mut telemetry: Vec<Telemetry> = Vec::with_capacity(64);
@@ -399,6 +404,7 @@ fn run(
             Incoming::Sample(s) => {
                 x = s.x_m;
                 button = s.button;
+                device_watchdog = s.status & status::WATCHDOG != 0;
             }
             Incoming::Telemetry(t) => {
                 x = t.x_m;
@@ -458,11 +464,6 @@ fn run(
                 ToLoop::Device(message) => write(message),
             }
         }
-        if connected && board.rendering && board.sent_s.is_some_and(|t| now - t >= RESEND_AFTER_S) {
-            let wanted = board.wanted.1.clone();
-            board.send(now, wanted.as_ref(), &mut write);
-            sent = true;
-        }
 
         if board.rendering && on_board.is_some() {
             // The device renders: its telemetry are the ticks.
@@ -489,8 +490,16 @@ fn run(
                     link: link_state,
                     render: board.device_render,
                     selected: t.flags & status::SELECTED != 0,
+                    watchdog: t.flags & status::WATCHDOG != 0,
                     mode,
                 });
+            }
+            // Resend only after this tick's telemetry is seen: after a stall
+            // it may already show the select in effect.
+            if connected && board.sent_s.is_some_and(|t| now - t >= RESEND_AFTER_S) {
+                let wanted = board.wanted.1.clone();
+                board.send(now, wanted.as_ref(), &mut write);
+                sent = true;
             }
             if let Some(m) = link.heartbeat(now, sent) {
                 write(m);
@@ -506,6 +515,7 @@ fn run(
                     link: link_state,
                     render: UNKNOWN_RENDER,
                     selected: false,
+                    watchdog: false,
                     mode,
                 });
             }
@@ -532,6 +542,7 @@ fn run(
             link: link_state,
             render: host_render,
             selected: std::mem::take(&mut host_selected),
+            watchdog: device_watchdog,
             mode: Mode::Host,
         });
     }

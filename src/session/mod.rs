@@ -66,7 +66,7 @@ pub use headless::{
 };
 use open::Log;
 pub use open::{DeviceChoice, OpenLog, Planned, SessionRequest, plan};
-pub use record::StreamRecorder;
+pub use record::{RowMarks, StreamRecorder};
 pub use responder::{
     MOUSE_HAND_DAMPING_N_S_M, MOUSE_HAND_MASS_KG, MOUSE_HAND_STIFFNESS_N_M, Person, Reaction,
     Responder,
@@ -172,9 +172,9 @@ pub struct Session<R: Responder> {
     /// The render in effect at the last device sample, and how it was
     /// stepped.
     row_render: (u32, How),
-    /// Whether a render took effect at the last sample, and (the simulated
-    /// device) whether one takes effect at the next.
-    selected: bool,
+    /// The last device sample's marks, and (the simulated device) whether
+    /// a render takes effect at the next.
+    marks: RowMarks,
     sim_selected: bool,
 }
 
@@ -268,7 +268,7 @@ impl<R: Responder> Session<R> {
             done_this_run: 0,
             wall: None,
             renders: Renders::default(),
-            selected: false,
+            marks: RowMarks::default(),
             sim_selected: false,
             row_render: (
                 0,
@@ -311,7 +311,10 @@ impl<R: Responder> Session<R> {
         let dt = *dt;
         let force = self.responder.hand_force(self.t, dt, &self.sample);
         self.sample = device.step(dt, force);
-        self.selected = std::mem::take(&mut self.sim_selected);
+        self.marks = RowMarks {
+            selected: std::mem::take(&mut self.sim_selected),
+            watchdog: false,
+        };
         self.row_render = (
             *render,
             How {
@@ -353,7 +356,10 @@ impl<R: Responder> Session<R> {
                 vibration: tick.vibration,
             };
             self.row_render = (tick.render, port.how(&tick));
-            self.selected = tick.selected;
+            self.marks = RowMarks {
+                selected: tick.selected,
+                watchdog: tick.watchdog,
+            };
             if let Some(drive) = self.responder.drive(self.t, &self.sample) {
                 port.drive_hand(tick.now_s, &drive);
             }
@@ -403,8 +409,7 @@ impl<R: Responder> Session<R> {
         {
             let (render, how) = self.row_render;
             let index = self.renders.row(render, how);
-            open.streams
-                .push(self.t, &self.sample, index, self.selected);
+            open.streams.push(self.t, &self.sample, index, self.marks);
         }
         if let Some(trace) = &mut self.trace {
             trace.observe(self.t, &self.sample);

@@ -14,17 +14,30 @@ use crate::results::{Header, LogLine, ResultsDir, ResultsError, data_csv, replac
 /// `streams/study-<P>_subject-<S>_session-<n>_trial-<k>_run-<r>_stream.csv`
 /// (`k` the planned trial index, `r` its presentation: 1, or more for a
 /// re-queued trial). Columns
-/// `t_s,x_m,v_m_s,force_n,vibration,render,selected`:
+/// `t_s,x_m,v_m_s,force_n,vibration,render,selected,watchdog`:
 /// session time, device position and velocity (what the model saw),
 /// rendered force on the hand, vibrotactile drive (SI units), and the
 /// index of the render in effect in the trial record's `rendering` list,
-/// and 1 where a render took effect (its model started at rest there).
+/// and the row's [`RowMarks`].
 /// Readable by `frictionlab identify`; `frictionlab rerender` renders it
 /// again.
 #[derive(Debug, Clone, Default)]
 pub struct StreamRecorder {
     stem: Option<PathBuf>,
-    rows: Vec<([f64; 5], usize, bool)>,
+    rows: Vec<([f64; 5], usize, RowMarks)>,
+}
+
+/// What a stream row marks besides its values (columns `selected` and
+/// `watchdog`, 0 or 1).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RowMarks {
+    /// A render took effect at this row (its model started at rest here).
+    pub selected: bool,
+    /// The device reported its watchdog tripped (no message from the host
+    /// for 20 ms): it rendered nothing at this tick. On board the row's
+    /// `force_n` and `vibration` are then 0, what the hand got; in the host
+    /// loop they are what the host sent.
+    pub watchdog: bool,
 }
 
 impl StreamRecorder {
@@ -46,13 +59,10 @@ impl StreamRecorder {
 
     /// Adds a sample of the trial under way, rendered by the trial's
     /// render number `render`.
-    pub fn push(&mut self, t_s: f64, s: &DeviceSample, render: usize, selected: bool) {
+    pub fn push(&mut self, t_s: f64, s: &DeviceSample, render: usize, marks: RowMarks) {
         if self.stem.is_some() {
-            self.rows.push((
-                [t_s, s.x_m, s.v_m_s, s.force_n, s.vibration],
-                render,
-                selected,
-            ));
+            self.rows
+                .push(([t_s, s.x_m, s.v_m_s, s.force_n, s.vibration], render, marks));
         }
     }
 
@@ -63,17 +73,18 @@ impl StreamRecorder {
             return Ok(());
         };
         let mut text = String::with_capacity(rows.len() * 64 + 40);
-        text.push_str("t_s,x_m,v_m_s,force_n,vibration,render,selected\n");
-        for (r, render, selected) in &rows {
+        text.push_str("t_s,x_m,v_m_s,force_n,vibration,render,selected,watchdog\n");
+        for (r, render, marks) in &rows {
             let _ = writeln!(
                 text,
-                "{},{},{},{},{},{render},{}",
+                "{},{},{},{},{},{render},{},{}",
                 r[0],
                 r[1],
                 r[2],
                 r[3],
                 r[4],
-                u8::from(*selected)
+                u8::from(marks.selected),
+                u8::from(marks.watchdog)
             );
         }
         let path = PathBuf::from(format!(
