@@ -23,6 +23,12 @@
 //! simulated device, at the previous row's position (where the device was
 //! when the model was set).
 //!
+//! # Lost telemetry
+//! An on-board stream's `t_s` steps by the device's loop period; a longer
+//! step is telemetry the link lost. The device's model stepped through
+//! those ticks, so the replay stops at the first such gap and reports the
+//! missing ticks and the rows it did not replay.
+//!
 //! # The watchdog
 //! Where a row is marked `watchdog` the device rendered nothing (no message
 //! from the host for 20 ms) while its model kept stepping, so an on-board
@@ -95,6 +101,13 @@ pub struct Rerendered {
     pub bit_exact: bool,
     /// Time the replayed rows span, s.
     pub replayed_s: f64,
+    /// Device ticks missing from the stream (telemetry the link lost), from
+    /// the gaps in an on-board stream's `t_s`. The device's model stepped
+    /// through ticks the stream does not show, so the replay stops at the
+    /// first gap.
+    pub missing_ticks: usize,
+    /// Rows after the first gap, not replayed.
+    pub unreplayed_rows: usize,
     /// Stick-to-slip transitions of the replayed models (Nakano's stick-slip
     /// and the god object; the other models have none).
     pub slip_onsets: usize,
@@ -274,6 +287,8 @@ pub fn rerender(rows: &[Row], entries: &[RenderEntry]) -> Rerendered {
         watchdog_rows: 0,
         bit_exact: true,
         replayed_s: 0.0,
+        missing_ticks: 0,
+        unreplayed_rows: 0,
         slip_onsets: 0,
         bursts: 0,
     };
@@ -292,6 +307,29 @@ pub fn rerender(rows: &[Row], entries: &[RenderEntry]) -> Rerendered {
     out
 }
 
+/// Device ticks missing between two rows of an on-board stream (its `t_s`
+/// steps by the device's loop period).
+fn missing_ticks(a: &Row, b: &Row, entries: &[RenderEntry]) -> usize {
+    let Some(e) = entries
+        .get(b.render)
+        .filter(|e| e.mode == RenderMode::OnBoard)
+    else {
+        return 0;
+    };
+    let periods = (b.t_s - a.t_s) * e.rate_hz;
+    if periods > 1.5 {
+        #[expect(
+            clippy::cast_possible_truncation,
+            clippy::cast_sign_loss,
+            reason = "a positive count of ticks"
+        )]
+        let missing = periods.round() as usize - 1;
+        missing
+    } else {
+        0
+    }
+}
+
 fn replay<T: Real>(rows: &[Row], entries: &[RenderEntry], start: usize, out: &mut Rerendered) {
     let Some(entry) = rows.get(start).and_then(|r| entries.get(r.render)) else {
         return;
@@ -301,8 +339,16 @@ fn replay<T: Real>(rows: &[Row], entries: &[RenderEntry], start: usize, out: &mu
     let dt = T::of(1.0 / entry.rate_hz);
     let mut current = None;
     let mut vibrates = false;
-    out.replayed_s = rows.last().map_or(0.0, |last| last.t_s - rows[start].t_s);
-    for (i, row) in rows.iter().enumerate().skip(start) {
+    out.missing_ticks = rows
+        .windows(2)
+        .map(|w| missing_ticks(&w[0], &w[1], entries))
+        .sum();
+    let end = (start + 1..rows.len())
+        .find(|&i| missing_ticks(&rows[i - 1], &rows[i], entries) > 0)
+        .unwrap_or(rows.len());
+    out.unreplayed_rows = rows.len() - end;
+    out.replayed_s = rows[end - 1].t_s - rows[start].t_s;
+    for (i, row) in rows.iter().enumerate().take(end).skip(start) {
         if row.selected || current != Some(row.render) {
             let Some(e) = entries.get(row.render) else {
                 return;

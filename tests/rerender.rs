@@ -113,9 +113,11 @@ fn a_damaged_stream_or_one_without_its_log_is_refused_with_its_place() {
 /// holds the output at 0 (the host silent for 20 ms, as a stalled link
 /// under load can be), and re-selects a model the host sends again. Its
 /// stream, with both marked, re-renders exactly; with the watchdog marks
-/// removed it does not, so the marks are what make the audit exact.
+/// removed it does not, so the marks are what make the audit exact. With
+/// telemetry lost, the replay is exact up to the loss and stops there.
 #[test]
-fn an_on_board_stream_with_a_tripped_watchdog_and_a_resent_model_re_renders_exactly() {
+fn an_on_board_stream_with_a_tripped_watchdog_a_resent_model_and_lost_telemetry_re_renders_exactly_up_to_the_loss()
+ {
     use frictionlab::friction::{Float, ForceLimit, Input, ModelParams};
     use frictionlab::protocol::engine::{RenderEntry, RenderMode};
     use frictionlab::rerender::{Row, rerender};
@@ -196,14 +198,24 @@ fn an_on_board_stream_with_a_tripped_watchdog_and_a_resent_model_re_renders_exac
         "nothing rendered while the watchdog holds"
     );
 
-    for row in &mut rows {
+    assert_eq!((r.missing_ticks, r.unreplayed_rows), (0, 0));
+
+    let mut unmarked = rows.clone();
+    for row in &mut unmarked {
         row.watchdog = false;
     }
-    let unmarked = rerender(&rows, &entries);
+    let unmarked = rerender(&unmarked, &entries);
     assert!(!unmarked.bit_exact, "{unmarked:?}");
     let worst = unmarked.worst_vibration_row.unwrap();
     assert!(
         silent.contains(&u32::try_from(worst).unwrap()),
         "{unmarked:?}"
     );
+
+    // 40 ticks (8 ms) of telemetry lost at 1.0 s.
+    rows.drain(5000..5040);
+    let lost = rerender(&rows, &entries);
+    assert!(lost.bit_exact, "{lost:?}");
+    assert_eq!((lost.missing_ticks, lost.unreplayed_rows), (40, 4960));
+    assert!((lost.replayed_s - 0.9998).abs() < 1e-9, "{lost:?}");
 }
