@@ -62,10 +62,16 @@ impl Renders {
     /// The index in this trial's renders of render `render`, stepped as
     /// `how` (a render no longer known rendered nothing: a device that
     /// restarted).
+    #[inline]
     pub fn row(&mut self, render: u32, how: How) -> usize {
+        // Every tick asks; the render seldom changes.
         if self.numbers.last() == Some(&render) {
             return self.numbers.len() - 1;
         }
+        self.add_row(render, how)
+    }
+
+    fn add_row(&mut self, render: u32, how: How) -> usize {
         let model = self
             .sent
             .iter()

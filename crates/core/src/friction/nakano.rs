@@ -296,43 +296,49 @@ impl<T: Real> Nakano<T> {
         let hold_a = m * floor_a;
         let mut slip_onset = false;
         let mut floor_v = self.floor_v;
+        // The state in locals for the sub-steps (written back after), the
+        // arithmetic as it reads.
+        let (mut phase, mut y, mut yv) = (self.phase, self.y, self.yv);
+        let (mut slip_rel, mut friction) = (self.slip_rel, self.friction);
         for _ in 0..self.substeps {
             floor_v += floor_dv;
-            match self.phase {
+            match phase {
                 Phase::Stick => {
-                    self.yv = floor_v;
-                    self.y += floor_v * h;
-                    let hold = hold_a + c * floor_v + k * self.y;
+                    yv = floor_v;
+                    y += floor_v * h;
+                    let hold = hold_a + c * floor_v + k * y;
                     if hold.abs() > static_limit {
-                        self.phase = Phase::Slip;
+                        phase = Phase::Slip;
                         slip_onset = true;
-                        self.slip_rel = hold.sign();
-                        self.onset_elastic_n = k * self.y;
+                        slip_rel = hold.sign();
+                        self.onset_elastic_n = k * y;
                         self.envelope = self.alpha * self.onset_elastic_n.abs();
-                        self.friction = self.slip_rel * kinetic;
+                        friction = slip_rel * kinetic;
                     } else {
-                        self.friction = hold;
+                        friction = hold;
                     }
                 }
                 Phase::Slip => {
-                    let friction = self.slip_rel * kinetic;
-                    self.yv += (-c * self.yv - k * self.y + friction) * h_over_m;
-                    self.y += self.yv * h;
-                    self.friction = friction;
-                    let rel = floor_v - self.yv;
-                    if rel * self.slip_rel <= T::ZERO {
-                        let hold = hold_a + c * floor_v + k * self.y;
+                    let slipping = slip_rel * kinetic;
+                    yv += (-c * yv - k * y + slipping) * h_over_m;
+                    y += yv * h;
+                    friction = slipping;
+                    let rel = floor_v - yv;
+                    if rel * slip_rel <= T::ZERO {
+                        let hold = hold_a + c * floor_v + k * y;
                         if hold.abs() <= static_limit {
-                            self.phase = Phase::Stick;
-                            self.yv = floor_v;
-                            self.friction = hold;
+                            phase = Phase::Stick;
+                            yv = floor_v;
+                            friction = hold;
                         } else {
-                            self.slip_rel = rel.sign();
+                            slip_rel = rel.sign();
                         }
                     }
                 }
             }
         }
+        (self.phase, self.y, self.yv) = (phase, y, yv);
+        (self.slip_rel, self.friction) = (slip_rel, friction);
         self.floor_v = input.v_m_s;
 
         match self.display {
