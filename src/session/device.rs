@@ -166,6 +166,21 @@ impl Device {
         }
     }
 
+    /// How the simulated device steps its model now (its rows' `How`);
+    /// None for a port, whose ticks say how each was stepped.
+    pub(super) fn sim_how(&self) -> Option<super::renders::How> {
+        match self {
+            Device::Sim { device, dt, .. } => Some(super::renders::How {
+                mode: crate::protocol::engine::RenderMode::Simulated,
+                float: crate::friction::Float::F64,
+                rate_hz: 1.0 / dt,
+                ramp_s: 0.0,
+                force_limit_n: device.force_limit_n(),
+            }),
+            _ => None,
+        }
+    }
+
     /// The physical friction of a condition (the simulated apparatus only:
     /// on a real device it is really there).
     pub(super) fn set_physical(&mut self, model: Option<&ModelParams>) {

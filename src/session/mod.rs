@@ -248,10 +248,13 @@ impl<R: Responder> Session<R> {
         };
         // How the simulated device steps, for its streams' rows (a port's
         // ticks say how each was stepped).
-        let (sim_rate_hz, sim_limit_n) = match &device {
-            Device::Sim { device, dt, .. } => (1.0 / dt, device.force_limit_n()),
-            _ => (0.0, 0.0),
-        };
+        let how = device.sim_how().unwrap_or(How {
+            mode: RenderMode::Simulated,
+            float: crate::friction::Float::F64,
+            rate_hz: 0.0,
+            ramp_s: 0.0,
+            force_limit_n: 0.0,
+        });
         Ok(Session {
             engine,
             log,
@@ -276,16 +279,7 @@ impl<R: Responder> Session<R> {
             renders: Renders::default(),
             marks: RowMarks::default(),
             sim_selected: false,
-            row_render: (
-                0,
-                How {
-                    mode: RenderMode::Simulated,
-                    float: crate::friction::Float::F64,
-                    rate_hz: sim_rate_hz,
-                    ramp_s: 0.0,
-                    force_limit_n: sim_limit_n,
-                },
-            ),
+            row_render: (0, how),
         })
     }
 
@@ -321,7 +315,8 @@ impl<R: Responder> Session<R> {
             selected: std::mem::take(&mut self.sim_selected),
             watchdog: false,
         };
-        // How the simulated device steps was set with it (constant).
+        // How the simulated device steps changes only with its model
+        // (`Session::render`).
         self.row_render.0 = *render;
         self.t += dt;
         self.observe();
@@ -638,6 +633,9 @@ impl<R: Responder> Session<R> {
         let render = self.renders.send(model.cloned());
         self.device.render(render, model);
         self.sim_selected = self.device.is_sim();
+        if let Some(how) = self.device.sim_how() {
+            self.row_render.1 = how;
+        }
     }
 
     /// Appends the experimenter's note to the session log (held until the
