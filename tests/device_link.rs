@@ -233,3 +233,49 @@ fn a_link_that_drops_bytes_and_flips_bits_keeps_working() {
         "no corrupted sample got through"
     );
 }
+
+/// A version 2 device answers `Capabilities` and then `OnBoard`; the link
+/// counts as connected only once `OnBoard` is in (or, from a device that
+/// never sends it, 100 ms after `Capabilities`), so a session cannot start
+/// its first trial on the host's loop because `OnBoard` came a read later.
+#[test]
+fn a_version_2_device_is_connected_once_its_on_board_statement_is_in() {
+    use frictionlab::device::link::ON_BOARD_WAIT_S;
+    let caps = frame(&Message::Capabilities {
+        version: 2,
+        dof: 1,
+        max_force_n: 9.48,
+        counts_per_m: 389_105.0,
+        force_rate_hz: 5000,
+        vibration_rate_hz: 5000,
+    });
+    let on_board = frame(&Message::OnBoard {
+        models: 0x7f,
+        loop_rate_hz: 5000,
+        float_bytes: 4,
+    });
+    let sample = frame(&Message::Sample {
+        ack_seq: 0,
+        time_us: 0,
+        position_counts: 0,
+        button: false,
+        status: 0,
+    });
+
+    let mut link = Link::new();
+    link.receive(0.0, &caps, |_| {});
+    assert_eq!(link.state(0.0), LinkState::Connecting);
+    assert_eq!(link.on_board(), None);
+    link.receive(0.002, &on_board, |_| {});
+    assert_eq!(link.state(0.002), LinkState::Connected);
+    assert_eq!(link.on_board().map(|o| o.loop_rate_hz), Some(5000));
+
+    // A device that never states it: connected after the wait, nothing on
+    // board (the host renders).
+    let mut link = Link::new();
+    link.receive(0.0, &caps, |_| {});
+    link.receive(0.09, &sample, |_| {});
+    assert_eq!(link.state(0.09), LinkState::Connecting);
+    assert_eq!(link.state(ON_BOARD_WAIT_S + 0.001), LinkState::Connected);
+    assert_eq!(link.on_board(), None);
+}

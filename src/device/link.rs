@@ -20,6 +20,12 @@ use super::wire::{DecodeStats, Decoder, Message, PROTOCOL_VERSION};
 /// No valid frame for this long: the device is lost, s.
 pub const LOST_AFTER_S: f64 = 0.100;
 
+/// How long after a version 2 device's `Capabilities` the link waits for
+/// its `OnBoard` (sent right after) before it counts as connected without
+/// it, s. Connected earlier, a session could start its first trial on the
+/// host's loop when the `OnBoard` came a read later.
+pub const ON_BOARD_WAIT_S: f64 = 0.100;
+
 /// Interval between `Hello`s while connecting, s.
 pub const HELLO_EVERY_S: f64 = 0.050;
 
@@ -130,6 +136,8 @@ pub struct Link {
     last_sent_s: Option<f64>,
     seq: u32,
     was_connected: bool,
+    /// When the last `Capabilities` arrived.
+    handshake_s: Option<f64>,
     on_board: Option<OnBoard>,
     device_loop: DeviceLoop,
 }
@@ -169,7 +177,13 @@ impl Link {
     /// The state at `now_s`.
     #[must_use]
     pub fn state(&self, now_s: f64) -> LinkState {
+        let awaiting_on_board = self.capabilities.is_some_and(|c| c.version >= 2)
+            && self.on_board.is_none()
+            && self
+                .handshake_s
+                .is_some_and(|h| now_s - h < ON_BOARD_WAIT_S);
         match (self.capabilities, self.last_valid_s) {
+            _ if awaiting_on_board => LinkState::Connecting,
             (Some(_), Some(t)) if now_s - t <= LOST_AFTER_S => LinkState::Connected,
             _ if self.was_connected => LinkState::Lost,
             _ => LinkState::Connecting,
@@ -276,6 +290,7 @@ impl Link {
             self.capabilities = Some(c);
             self.on_board = None;
             self.was_connected = true;
+            self.handshake_s = Some(now_s);
         }
         if let Some(o) = on_board.filter(|_| self.capabilities.is_some_and(|c| c.version >= 2)) {
             self.on_board = Some(o);
