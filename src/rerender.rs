@@ -339,13 +339,16 @@ fn replay<T: Real>(rows: &[Row], entries: &[RenderEntry], start: usize, out: &mu
     let dt = T::of(1.0 / entry.rate_hz);
     let mut current = None;
     let mut vibrates = false;
-    out.missing_ticks = rows
-        .windows(2)
-        .map(|w| missing_ticks(&w[0], &w[1], entries))
-        .sum();
-    let end = (start + 1..rows.len())
-        .find(|&i| missing_ticks(&rows[i - 1], &rows[i], entries) > 0)
-        .unwrap_or(rows.len());
+    // One pass over the gaps: their total, and the first after the start
+    // (where the replay ends).
+    let mut end = rows.len();
+    for (i, w) in rows.windows(2).enumerate() {
+        let missing = missing_ticks(&w[0], &w[1], entries);
+        out.missing_ticks += missing;
+        if missing > 0 && i >= start && end == rows.len() {
+            end = i + 1;
+        }
+    }
     out.unreplayed_rows = rows.len() - end;
     out.replayed_s = rows[end - 1].t_s - rows[start].t_s;
     for (i, row) in rows.iter().enumerate().take(end).skip(start) {
