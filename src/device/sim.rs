@@ -152,16 +152,22 @@ impl SimDevice {
 
     /// Advances by `dt` with the hand pushing with `hand_force_n`; the
     /// rendered force comes from the model set by [`SimDevice::set_model`].
+    #[inline]
     pub fn step(&mut self, dt: f64, hand_force_n: f64) -> DeviceSample {
         let sensed = self.sense(dt);
-        let out = self.rendered.as_mut().map(|f| f.step(dt, sensed));
-        let rendered = out.map_or(0.0, |o| o.force_n);
+        let (rendered, vibration) = match self.rendered.as_mut() {
+            Some(f) => {
+                let o = f.step(dt, sensed);
+                (o.force_n, o.vibration)
+            }
+            None => (0.0, 0.0),
+        };
         self.advance(dt, hand_force_n, rendered);
         DeviceSample {
             x_m: sensed.x_m,
             v_m_s: sensed.v_m_s,
             force_n: rendered,
-            vibration: out.map_or(0.0, |o| o.vibration),
+            vibration,
         }
     }
 
@@ -200,6 +206,7 @@ impl SimDevice {
     }
 
     /// Measured position and estimated velocity.
+    #[inline]
     fn sense(&mut self, dt: f64) -> Input {
         let measured = self.quantize(self.x);
         if self.filter.0 != dt {
@@ -217,6 +224,7 @@ impl SimDevice {
 
     /// Moves the device under the hand, the motor force, the physical
     /// friction, the end stops and the apparatus's own friction.
+    #[inline]
     fn advance(&mut self, dt: f64, hand_force_n: f64, motor_n: f64) {
         let physical = self.physical.as_mut().map_or(0.0, |f| {
             f.step(
