@@ -24,10 +24,13 @@
 //! when the model was set).
 //!
 //! # Lost telemetry
-//! An on-board stream's `t_s` steps by the device's loop period; a longer
-//! step is telemetry the link lost. The device's model stepped through
-//! those ticks, so the replay stops at the first such gap and reports the
-//! missing ticks and the rows it did not replay.
+//! An on-board stream's `tick` column numbers the device's loop ticks; a
+//! step of more than one is telemetry the link lost. (In streams from
+//! before the column, `t_s` stepping by more than the device's loop
+//! period says the same; but `t_s` is on the host's clock, which also
+//! jumps when a device's clock drifts from it.) The device's model stepped
+//! through those ticks, so the replay stops at the first such gap and
+//! reports the missing ticks and the rows it did not replay.
 //!
 //! # The watchdog
 //! Where a row is marked `watchdog` the device rendered nothing (no message
@@ -64,6 +67,9 @@ pub struct Row {
     /// Whether the device's watchdog had tripped at this row (column
     /// `watchdog`, absent in streams from before it was recorded: 0).
     pub watchdog: bool,
+    /// The device's loop tick number (column `tick`; empty where the
+    /// device gave none, absent in older streams).
+    pub tick: Option<u32>,
 }
 
 /// What a re-render found.
@@ -201,6 +207,7 @@ pub fn parse_stream(file: &str, text: &str) -> Result<Vec<Row>, Problem> {
         "selected",
     ];
     const OPTIONAL: &str = "watchdog";
+    const TICK: &str = "tick";
     let mut lines = text.lines();
     let header = lines.next().unwrap_or_default();
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
@@ -216,6 +223,7 @@ pub fn parse_stream(file: &str, text: &str) -> Result<Vec<Row>, Problem> {
         })
         .collect::<Result<_, _>>()?;
     let optional = names.iter().position(|n| *n == OPTIONAL);
+    let tick_at = names.iter().position(|n| *n == TICK);
     let mut rows = Vec::new();
     for (i, line) in lines.enumerate() {
         if line.trim().is_empty() {
@@ -242,6 +250,15 @@ pub fn parse_stream(file: &str, text: &str) -> Result<Vec<Row>, Problem> {
             Some(c) => number(c, OPTIONAL)? != 0.0,
             None => false,
         };
+        let tick = match tick_at.map(|c| (c, cells.get(c).map_or("", |s| s.trim()))) {
+            None | Some((_, "")) => None,
+            Some((c, cell)) => Some(cell.parse::<u32>().map_err(|_| {
+                Problem::new(
+                    format!("{file}: {}:{}", i + 2, c + 1),
+                    format!("column 'tick': '{cell}' is not a device tick number"),
+                )
+            })?),
+        };
         #[expect(
             clippy::cast_possible_truncation,
             clippy::cast_sign_loss,
@@ -264,6 +281,7 @@ pub fn parse_stream(file: &str, text: &str) -> Result<Vec<Row>, Problem> {
             render,
             selected: v[6] != 0.0,
             watchdog,
+            tick,
         });
     }
     Ok(rows)
@@ -307,8 +325,9 @@ pub fn rerender(rows: &[Row], entries: &[RenderEntry]) -> Rerendered {
     out
 }
 
-/// Device ticks missing between two rows of an on-board stream (its `t_s`
-/// steps by the device's loop period).
+/// Device ticks missing between two rows of an on-board stream: from
+/// their tick numbers, or, without them, from `t_s` (which steps by the
+/// device's loop period).
 fn missing_ticks(a: &Row, b: &Row, entries: &[RenderEntry]) -> usize {
     let Some(e) = entries
         .get(b.render)
@@ -316,6 +335,9 @@ fn missing_ticks(a: &Row, b: &Row, entries: &[RenderEntry]) -> usize {
     else {
         return 0;
     };
+    if let (Some(ta), Some(tb)) = (a.tick, b.tick) {
+        return usize::try_from(tb.wrapping_sub(ta).saturating_sub(1)).unwrap_or(usize::MAX);
+    }
     let periods = (b.t_s - a.t_s) * e.rate_hz;
     if periods > 1.5 {
         #[expect(

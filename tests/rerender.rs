@@ -116,6 +116,7 @@ fn a_damaged_stream_or_one_without_its_log_is_refused_with_its_place() {
 /// removed it does not, so the marks are what make the audit exact. With
 /// telemetry lost, the replay is exact up to the loss and stops there.
 #[test]
+#[expect(clippy::too_many_lines, reason = "one stream, damaged four ways")]
 fn an_on_board_stream_with_a_tripped_watchdog_a_resent_model_and_lost_telemetry_re_renders_exactly_up_to_the_loss()
  {
     use frictionlab::friction::{Float, ForceLimit, Input, ModelParams};
@@ -150,6 +151,7 @@ fn an_on_board_stream_with_a_tripped_watchdog_a_resent_model_and_lost_telemetry_
             v_m_s: (0.03 * w * (w * t).cos()) as f32,
         };
         let Some(Message::Telemetry {
+            tick,
             x_m,
             v_m_s,
             force_n,
@@ -169,6 +171,7 @@ fn an_on_board_stream_with_a_tripped_watchdog_a_resent_model_and_lost_telemetry_
             render: 0,
             selected: flags & status::SELECTED != 0,
             watchdog: flags & status::WATCHDOG != 0,
+            tick: Some(tick),
         });
     }
     let entries = [RenderEntry {
@@ -212,10 +215,28 @@ fn an_on_board_stream_with_a_tripped_watchdog_a_resent_model_and_lost_telemetry_
         "{unmarked:?}"
     );
 
-    // 40 ticks (8 ms) of telemetry lost at 1.0 s.
+    // The host's clock jumps 0.1 s ahead of the device's at 1.2 s (it
+    // re-anchors a device that runs slow): the ticks are all there, so the
+    // replay goes on.
+    let mut jumped = rows.clone();
+    for row in &mut jumped[6000..] {
+        row.t_s += 0.1;
+    }
+    let jumped = rerender(&jumped, &entries);
+    assert!(jumped.bit_exact, "{jumped:?}");
+    assert_eq!((jumped.missing_ticks, jumped.unreplayed_rows), (0, 0));
+
+    // 40 ticks (8 ms) of telemetry lost at 1.0 s, found by the tick
+    // numbers and, in a stream from before they were recorded, by `t_s`.
     rows.drain(5000..5040);
-    let lost = rerender(&rows, &entries);
-    assert!(lost.bit_exact, "{lost:?}");
-    assert_eq!((lost.missing_ticks, lost.unreplayed_rows), (40, 4960));
-    assert!((lost.replayed_s - 0.9998).abs() < 1e-9, "{lost:?}");
+    let mut untimed = rows.clone();
+    for row in &mut untimed {
+        row.tick = None;
+    }
+    for rows in [rows, untimed] {
+        let lost = rerender(&rows, &entries);
+        assert!(lost.bit_exact, "{lost:?}");
+        assert_eq!((lost.missing_ticks, lost.unreplayed_rows), (40, 4960));
+        assert!((lost.replayed_s - 0.9998).abs() < 1e-9, "{lost:?}");
+    }
 }

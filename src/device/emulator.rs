@@ -22,15 +22,15 @@
 //! any port) runs the core at the force loop rate, dropping any frame the
 //! port cannot take at once.
 
-use crate::hand::{Hand, HandDrive};
 use std::io::{ErrorKind, Read, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use super::sim::{Apparatus, SimDevice};
-use super::wire::{Decoder, MAX_FRAME, Message, PROTOCOL_VERSION, encode, status};
-use crate::friction::{ForceLimit, Input};
-use frictionlab_core::onboard::Board;
+use super::sim::Apparatus;
+use super::wire::{Decoder, MAX_FRAME, Message, encode, status};
+use crate::friction::ForceLimit;
+use frictionlab_core::onboard::{self, Firmware};
+use frictionlab_core::plant::Rig;
 
 /// Force loop rate of the emulated firmware, Hz (seed 002's 1 kHz servo).
 pub const FORCE_RATE_HZ: u16 = 1000;
@@ -39,15 +39,12 @@ pub const FORCE_RATE_HZ: u16 = 1000;
 /// every model runs at on board.
 pub const ON_BOARD_RATE_HZ: u16 = 5000;
 
-/// How often the on-board mode sends its `LoopReport`, ticks (100 ms).
-const REPORT_EVERY_TICKS: u32 = ON_BOARD_RATE_HZ as u32 / 10;
-
 /// Watchdog: no valid command for this long zeroes the force, s.
 pub const WATCHDOG_S: f64 = frictionlab_core::onboard::WATCHDOG_S;
 
 /// A host that has sent nothing for this long is gone: the emulator stops
 /// streaming until the next `Hello`, s.
-pub const HOST_GONE_S: f64 = 1.0;
+pub const HOST_GONE_S: f64 = onboard::HOST_GONE_S;
 
 /// Hand mass on the emulated device, kg (as the simulated participant's).
 const HAND_MASS_KG: f64 = 0.4;
@@ -56,7 +53,8 @@ const HAND_MASS_KG: f64 = 0.4;
 #[derive(Debug, Clone)]
 pub struct EmulatorCore {
     p: Apparatus,
-    device: SimDevice,
+    /// The apparatus with the hand `HandDrive` describes on it.
+    rig: Rig,
     now_s: f64,
     force_n: f64,
     clamped: bool,
@@ -65,16 +63,9 @@ pub struct EmulatorCore {
     /// When the host last sent a valid frame, since its `Hello`; `None`
     /// while no host is there.
     host_heard_s: Option<f64>,
-    /// The hand's drive as last received; its segment advances with each
-    /// drive of zero integral gain (see [`crate::hand`]).
-    drive: HandDrive,
-    hand: Hand,
-    click: bool,
-    x_m: f64,
-    v_m_s: f64,
-    /// The on-board renderer (`--on-board`), and whether the host speaks
+    /// The on-board firmware (`--on-board`), and whether the host speaks
     /// version 2 (so it is used).
-    board: Option<Board<f32>>,
+    firmware: Option<Firmware<f32>>,
     v2: bool,
     /// Replies beyond the first to a message (`OnBoard` after
     /// `Capabilities`) and loop reports, sent with the next tick.
@@ -94,19 +85,14 @@ impl EmulatorCore {
         let p = Apparatus::default();
         EmulatorCore {
             p,
-            device: SimDevice::new(p, HAND_MASS_KG, crate::friction::StepParams::default()),
+            rig: Rig::new(p, HAND_MASS_KG),
             now_s: 0.0,
             force_n: 0.0,
             clamped: false,
             ack_seq: 0,
             last_command_s: None,
             host_heard_s: None,
-            drive: HandDrive::default(),
-            hand: Hand::default(),
-            click: false,
-            x_m: 0.0,
-            v_m_s: 0.0,
-            board: None,
+            firmware: None,
             v2: false,
             outbox: Vec::new(),
         }
@@ -117,16 +103,16 @@ impl EmulatorCore {
     #[must_use]
     pub fn on_board() -> Self {
         let mut core = Self::new();
-        #[expect(clippy::cast_possible_truncation, reason = "9.48 N")]
-        let limit = ForceLimit::new(core.p.max_force_n as f32).unwrap_or_default();
-        core.board = Some(Board::new(ON_BOARD_RATE_HZ, limit));
+        let stated = core.p.stated();
+        let limit = ForceLimit::new(stated.max_force_n).unwrap_or_default();
+        core.firmware = Some(Firmware::new(ON_BOARD_RATE_HZ, limit, stated));
         core
     }
 
     /// The loop rate in the mode the current host speaks, Hz.
     #[must_use]
     pub fn rate_hz(&self) -> u16 {
-        if self.board.is_some() {
+        if self.firmware.is_some() {
             ON_BOARD_RATE_HZ
         } else {
             FORCE_RATE_HZ
@@ -141,22 +127,18 @@ impl EmulatorCore {
 
     /// The capabilities this firmware states.
     #[must_use]
-    #[expect(
-        clippy::cast_possible_truncation,
-        reason = "f32 is the wire's type; these values need no more"
-    )]
     pub fn capabilities(&self) -> Message {
+        if let Some(firmware) = self.firmware.as_ref().filter(|_| self.v2) {
+            return firmware.capabilities();
+        }
+        let stated = self.p.stated();
         Message::Capabilities {
-            version: if self.v2 { PROTOCOL_VERSION } else { 1 },
+            version: 1,
             dof: 1,
-            max_force_n: self.p.max_force_n as f32,
-            counts_per_m: (1.0 / self.p.encoder_m) as f32,
-            force_rate_hz: if self.v2 {
-                ON_BOARD_RATE_HZ
-            } else {
-                FORCE_RATE_HZ
-            },
-            vibration_rate_hz: if self.v2 { ON_BOARD_RATE_HZ } else { 0 },
+            max_force_n: stated.max_force_n,
+            counts_per_m: stated.counts_per_m,
+            force_rate_hz: FORCE_RATE_HZ,
+            vibration_rate_hz: 0,
         }
     }
 
@@ -173,22 +155,23 @@ impl EmulatorCore {
         if matches!(message, Message::Hello { .. }) || self.host_heard_s.is_some() {
             self.host_heard_s = Some(self.now_s);
         }
-        if self.v2
-            && let Some(board) = &mut self.board
-            && !matches!(message, Message::Hello { .. })
-        {
-            board.receive(&message);
+        if let Message::Hello { version } = message {
+            self.v2 = version >= 2 && self.firmware.is_some();
+        }
+        let mut reply = None;
+        if let Some(firmware) = self.firmware.as_mut().filter(|_| self.v2) {
+            // The first reply (`Capabilities` to a `Hello`) now, the rest
+            // (`OnBoard`) with the next tick.
+            firmware.receive(&message, |m| match reply {
+                None => reply = Some(m),
+                Some(_) => self.outbox.push(m),
+            });
         }
         match message {
-            Message::Hello { version } => {
+            Message::Hello { .. } => {
                 self.force_n = 0.0;
                 self.last_command_s = None;
-                self.v2 = version >= 2 && self.board.is_some();
-                if let Some(board) = self.board.as_mut().filter(|_| self.v2) {
-                    board.reset();
-                    self.outbox.push(board.on_board());
-                }
-                Some(self.capabilities())
+                reply.or_else(|| Some(self.capabilities()))
             }
             Message::Command { seq, force_n, .. } => {
                 let f = if force_n.is_finite() {
@@ -203,32 +186,8 @@ impl EmulatorCore {
                 self.last_command_s = Some(self.now_s);
                 None
             }
-            Message::HandDrive {
-                x_m,
-                v_m_s,
-                stiffness_n_m,
-                damping_n_s_m,
-                integral,
-                click,
-            } => {
-                let finite = |x: f32| if x.is_finite() { f64::from(x) } else { 0.0 };
-                let integral_gain = finite(integral);
-                // A relaxed drive (no integral gain) ends the movement
-                // segment: the host sends one at each new segment.
-                let segment = if integral_gain > 0.0 {
-                    self.drive.segment
-                } else {
-                    self.drive.segment.wrapping_add(1)
-                };
-                self.drive = HandDrive {
-                    x_m: finite(x_m),
-                    v_m_s: finite(v_m_s),
-                    stiffness_n_m: finite(stiffness_n_m),
-                    damping_n_s_m: finite(damping_n_s_m),
-                    integral_gain,
-                    segment,
-                };
-                self.click |= click;
+            Message::HandDrive { .. } => {
+                self.rig.follow(&message);
                 None
             }
             _ => None,
@@ -238,13 +197,13 @@ impl EmulatorCore {
     /// The hand's integral effort now, N (see [`crate::hand`]).
     #[must_use]
     pub fn hand_integral_n(&self) -> f64 {
-        self.hand.integral_n()
+        self.rig.hand_integral_n()
     }
 
     /// Advances the firmware by `dt`; returns this tick's sample, or `None`
     /// while no host is there ([`EmulatorCore::has_host`]).
     pub fn tick(&mut self, dt: f64) -> Option<Message> {
-        if self.v2 && self.board.is_some() {
+        if self.v2 && self.firmware.is_some() {
             return self.tick_on_board(dt);
         }
         self.now_s += dt;
@@ -252,11 +211,11 @@ impl EmulatorCore {
             .last_command_s
             .is_none_or(|t| self.now_s - t > WATCHDOG_S);
         let force = if watchdog { 0.0 } else { self.force_n };
-        let hand = self.hand.force(&self.drive, self.x_m, self.v_m_s, dt);
-        let sample = self.device.step_commanded(dt, hand, force);
-        self.x_m = sample.x_m;
-        self.v_m_s = sample.v_m_s;
-        let button = std::mem::take(&mut self.click);
+        let mut button = false;
+        let sample = self.rig.step(dt, |sensed| {
+            button = sensed.button;
+            force
+        });
         if !self.has_host() {
             self.host_heard_s = None;
             return None;
@@ -268,7 +227,7 @@ impl EmulatorCore {
         if self.clamped {
             flags |= status::CLAMPED;
         }
-        if self.device.at_end_stop() {
+        if self.rig.at_end_stop() {
             flags |= status::END_STOP;
         }
         #[expect(
@@ -285,49 +244,37 @@ impl EmulatorCore {
         })
     }
 
-    /// One tick rendering on board: the board computes the force from what
-    /// the apparatus sensed; its telemetry is the tick's message.
+    /// One tick rendering on board: the firmware computes the force from
+    /// what the apparatus sensed; its telemetry is the tick's message (a
+    /// loop report goes with the next tick).
     fn tick_on_board(&mut self, dt: f64) -> Option<Message> {
-        let board = self.board.as_mut()?;
+        let firmware = self.firmware.as_mut()?;
         self.now_s += dt;
-        let hand = self.hand.force(&self.drive, self.x_m, self.v_m_s, dt);
-        let button = std::mem::take(&mut self.click);
-        let end_stop = self.device.at_end_stop();
-        let mut drive = None;
-        let sample = self.device.step_with(dt, hand, |sensed| {
-            #[expect(
-                clippy::cast_possible_truncation,
-                reason = "the device computes in f32"
-            )]
-            let input = Input {
-                x_m: sensed.x_m as f32,
-                v_m_s: sensed.v_m_s as f32,
-            };
-            let d = board.tick(input, button, end_stop);
-            drive = Some(d);
-            f64::from(d.force_n)
+        let mut telemetry = None;
+        let outbox = &mut self.outbox;
+        let sample = self.rig.step(dt, |sensed| {
+            let input = sensed.input_f32();
+            let (force_n, _) =
+                firmware.tick(input, sensed.button, sensed.end_stop, |m| match telemetry {
+                    None => telemetry = Some(m),
+                    Some(_) => outbox.push(m),
+                });
+            f64::from(force_n)
         });
-        self.x_m = sample.x_m;
-        self.v_m_s = sample.v_m_s;
         self.force_n = sample.force_n;
-        if let Message::LoopReport { ticks, .. } = board.loop_report()
-            && ticks % REPORT_EVERY_TICKS == 0
-        {
-            self.outbox.push(board.loop_report());
-        }
-        if !self.has_host() {
+        if !firmware.has_host() {
             self.host_heard_s = None;
             self.v2 = false;
             self.outbox.clear();
             return None;
         }
-        drive.and_then(|d| d.telemetry)
+        telemetry
     }
 
     /// Notes the loop's timing for the on-board `LoopReport`.
     pub fn note_loop(&mut self, loop_us: u32, missed: bool) {
-        if let Some(board) = &mut self.board {
-            board.note_loop(loop_us, missed);
+        if let Some(firmware) = &mut self.firmware {
+            firmware.note_loop(loop_us, missed);
         }
     }
 

@@ -92,6 +92,10 @@ pub struct Tick {
     /// nothing): on board, at this tick; in the host loop, at the device's
     /// last sample.
     pub watchdog: bool,
+    /// The device's loop tick number, for a tick its telemetry reported
+    /// (on board): consecutive ticks of the device differ by one, whatever
+    /// the link's timing.
+    pub device_tick: Option<u32>,
     /// Who rendered this tick.
     pub mode: Mode,
 }
@@ -491,6 +495,7 @@ fn run(
                     render: board.device_render,
                     selected: t.flags & status::SELECTED != 0,
                     watchdog: t.flags & status::WATCHDOG != 0,
+                    device_tick: Some(t.tick),
                     mode,
                 });
             }
@@ -516,6 +521,7 @@ fn run(
                     render: UNKNOWN_RENDER,
                     selected: false,
                     watchdog: false,
+                    device_tick: None,
                     mode,
                 });
             }
@@ -543,6 +549,7 @@ fn run(
             render: host_render,
             selected: std::mem::take(&mut host_selected),
             watchdog: device_watchdog,
+            device_tick: None,
             mode: Mode::Host,
         });
     }

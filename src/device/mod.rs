@@ -79,15 +79,4 @@ fn not_a_port(meta: &std::fs::Metadata) -> Option<&'static str> {
     }
 }
 
-/// What a device reports each loop tick.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct DeviceSample {
-    /// Measured position (encoder resolution), m.
-    pub x_m: f64,
-    /// Estimated velocity, m/s.
-    pub v_m_s: f64,
-    /// Rendered force on the hand this tick, N.
-    pub force_n: f64,
-    /// Vibrotactile drive this tick, `[-1, 1]`.
-    pub vibration: f64,
-}
+pub use frictionlab_core::plant::DeviceSample;

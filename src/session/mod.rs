@@ -314,6 +314,7 @@ impl<R: Responder> Session<R> {
         self.marks = RowMarks {
             selected: std::mem::take(&mut self.sim_selected),
             watchdog: false,
+            device_tick: None,
         };
         // How the simulated device steps changes only with its model
         // (`Session::render`).
@@ -352,6 +353,7 @@ impl<R: Responder> Session<R> {
             self.marks = RowMarks {
                 selected: tick.selected,
                 watchdog: tick.watchdog,
+                device_tick: tick.device_tick,
             };
             if let Some(drive) = self.responder.drive(self.t, &self.sample) {
                 port.drive_hand(tick.now_s, &drive);

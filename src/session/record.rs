@@ -14,7 +14,7 @@ use crate::results::{Header, LogLine, ResultsDir, ResultsError, data_csv, replac
 /// `streams/study-<P>_subject-<S>_session-<n>_trial-<k>_run-<r>_stream.csv`
 /// (`k` the planned trial index, `r` its presentation: 1, or more for a
 /// re-queued trial). Columns
-/// `t_s,x_m,v_m_s,force_n,vibration,render,selected,watchdog`:
+/// `t_s,x_m,v_m_s,force_n,vibration,render,selected,watchdog,tick`:
 /// session time, device position and velocity (what the model saw),
 /// rendered force on the hand, vibrotactile drive (SI units), and the
 /// index of the render in effect in the trial record's `rendering` list,
@@ -28,7 +28,7 @@ pub struct StreamRecorder {
 }
 
 /// What a stream row marks besides its values (columns `selected` and
-/// `watchdog`, 0 or 1).
+/// `watchdog`, 0 or 1, and `tick`, empty where the device gave none).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct RowMarks {
     /// A render took effect at this row (its model started at rest here).
@@ -38,6 +38,9 @@ pub struct RowMarks {
     /// `force_n` and `vibration` are then 0, what the hand got; in the host
     /// loop they are what the host sent.
     pub watchdog: bool,
+    /// The device's loop tick number, where its telemetry gave one (on
+    /// board).
+    pub device_tick: Option<u32>,
 }
 
 impl StreamRecorder {
@@ -73,11 +76,11 @@ impl StreamRecorder {
             return Ok(());
         };
         let mut text = String::with_capacity(rows.len() * 64 + 40);
-        text.push_str("t_s,x_m,v_m_s,force_n,vibration,render,selected,watchdog\n");
+        text.push_str("t_s,x_m,v_m_s,force_n,vibration,render,selected,watchdog,tick\n");
         for (r, render, marks) in &rows {
-            let _ = writeln!(
+            let _ = write!(
                 text,
-                "{},{},{},{},{},{render},{},{}",
+                "{},{},{},{},{},{render},{},{},",
                 r[0],
                 r[1],
                 r[2],
@@ -86,6 +89,10 @@ impl StreamRecorder {
                 u8::from(marks.selected),
                 u8::from(marks.watchdog)
             );
+            if let Some(tick) = marks.device_tick {
+                let _ = write!(text, "{tick}");
+            }
+            text.push('\n');
         }
         let path = PathBuf::from(format!(
             "{}_trial-{trial}_run-{run}_stream.csv",

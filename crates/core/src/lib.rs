@@ -11,6 +11,9 @@
 //! - [`render`]: a model's parameters as numbers, and the renderer that
 //!   crossfades between models and clamps the force.
 //! - [`onboard`]: a device rendering models itself (wire protocol v2).
+//! - [`plant`] and [`hand`]: seed 002's apparatus with a hand on it, the
+//!   simulated device that the host, the emulator and the QEMU firmware
+//!   move.
 //! - [`wire`]: the device wire protocol's messages, framing (COBS + CRC)
 //!   and sans-IO decoder, for the host and the firmware alike.
 //!
@@ -21,7 +24,9 @@
 
 pub mod check;
 pub mod friction;
+pub mod hand;
 pub mod onboard;
+pub mod plant;
 pub mod real;
 pub mod render;
 pub mod wire;

@@ -216,7 +216,12 @@ impl<T: Real> Board<T> {
     /// One loop tick at the sensed `input`: applies a pending select, steps
     /// the renderer, applies the watchdog, and returns the output.
     pub fn tick(&mut self, input: Input<T>, button: bool, end_stop: bool) -> Drive<T> {
-        let selected = self.pending.is_some();
+        // A refused select changes nothing the device renders: it is not
+        // marked selected (a re-render would restart the model).
+        let selected = matches!(
+            self.pending,
+            Some(Pending::Model { .. } | Pending::Clear { .. })
+        );
         match self.pending.take() {
             Some(Pending::Model { render, flat }) => {
                 let params = ModelParams::unflatten(flat.kind, flat.used());
@@ -295,6 +300,134 @@ impl<T: Real> Board<T> {
             vibration,
             telemetry,
         }
+    }
+}
+
+/// A host that has sent nothing for this long is gone: the device stops
+/// streaming until the next `Hello`, s.
+pub const HOST_GONE_S: f64 = 1.0;
+
+/// How often a device sends its `LoopReport`, s.
+pub const REPORT_EVERY_S: f64 = 0.1;
+
+/// What a device states in its `Capabilities` besides its loop rate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Apparatus {
+    /// Maximum continuous force, N.
+    pub max_force_n: f32,
+    /// Encoder counts per metre.
+    pub counts_per_m: f32,
+}
+
+/// The wire protocol v2 side of firmware that renders on board, sans-IO:
+/// what the device emulator's `--on-board` mode and the microcontroller
+/// firmware run. It answers `Hello` with `Capabilities` and `OnBoard`
+/// (and starts the [`Board`] afresh), hands every other message to the
+/// board, and streams the board's `Telemetry` and a `LoopReport` every
+/// [`REPORT_EVERY_S`] while a host is there: from its `Hello` until it has
+/// sent nothing for [`HOST_GONE_S`]. Before the first `Hello` and after a
+/// host has gone it sends nothing (a device on a port nobody reads must
+/// not fill it).
+#[derive(Debug, Clone)]
+pub struct Firmware<T: Real> {
+    board: Board<T>,
+    apparatus: Apparatus,
+    /// Ticks since the host's last frame; `None`: no host.
+    host_quiet: Option<u32>,
+    gone_ticks: u32,
+    report_every: u32,
+}
+
+impl<T: Real> Firmware<T> {
+    /// Firmware looping at `rate_hz` with its force limited to `limit`.
+    #[must_use]
+    pub fn new(rate_hz: u16, limit: ForceLimit<T>, apparatus: Apparatus) -> Self {
+        let rate = f64::from(rate_hz.max(1));
+        #[expect(
+            clippy::cast_possible_truncation,
+            clippy::cast_sign_loss,
+            reason = "ticks of a second at most"
+        )]
+        let ticks = |s: f64| libm::ceil(s * rate) as u32;
+        Firmware {
+            board: Board::new(rate_hz, limit),
+            apparatus,
+            host_quiet: None,
+            gone_ticks: ticks(HOST_GONE_S),
+            report_every: ticks(REPORT_EVERY_S).max(1),
+        }
+    }
+
+    /// The `Capabilities` this firmware states (version 2).
+    #[must_use]
+    pub fn capabilities(&self) -> Message {
+        let rate = self.board.rate_hz;
+        Message::Capabilities {
+            version: crate::wire::PROTOCOL_VERSION,
+            dof: 1,
+            max_force_n: self.apparatus.max_force_n,
+            counts_per_m: self.apparatus.counts_per_m,
+            force_rate_hz: rate,
+            vibration_rate_hz: rate,
+        }
+    }
+
+    /// The loop step, s.
+    #[must_use]
+    pub fn dt(&self) -> T {
+        self.board.dt()
+    }
+
+    /// Whether a host is there (see the type's docs).
+    #[must_use]
+    pub fn has_host(&self) -> bool {
+        self.host_quiet.is_some()
+    }
+
+    /// Handles one valid message from the host; `send` gets the replies.
+    pub fn receive(&mut self, message: &Message, mut send: impl FnMut(Message)) {
+        if matches!(message, Message::Hello { .. }) {
+            self.host_quiet = Some(0);
+            self.board.reset();
+            send(self.capabilities());
+            send(self.board.on_board());
+            return;
+        }
+        if let Some(quiet) = &mut self.host_quiet {
+            *quiet = 0;
+        }
+        self.board.receive(message);
+    }
+
+    /// Notes how long this tick's loop body took and whether its deadline
+    /// had passed (measured by the shell).
+    pub fn note_loop(&mut self, loop_us: u32, missed: bool) {
+        self.board.note_loop(loop_us, missed);
+    }
+
+    /// One loop tick at the sensed `input` ([`Board::tick`]); `send` gets
+    /// the telemetry and loop reports due. Returns the force and vibration
+    /// to output.
+    pub fn tick(
+        &mut self,
+        input: Input<T>,
+        button: bool,
+        end_stop: bool,
+        mut send: impl FnMut(Message),
+    ) -> (T, T) {
+        let drive = self.board.tick(input, button, end_stop);
+        if let Some(quiet) = self.host_quiet {
+            self.host_quiet = (quiet < self.gone_ticks).then_some(quiet + 1);
+        }
+        if self.has_host() {
+            if let Some(telemetry) = drive.telemetry {
+                send(telemetry);
+            }
+            if self.board.tick.is_multiple_of(self.report_every) {
+                send(self.board.loop_report());
+            }
+        }
+        (drive.force_n, drive.vibration)
     }
 }
 
@@ -378,6 +511,7 @@ mod tests {
             panic!()
         };
         assert_ne!(flags & status::REFUSED, 0);
+        assert_eq!(flags & status::SELECTED, 0, "nothing took effect");
         assert_eq!(render, 0);
         // A value changed in transit (the frame CRC would catch it; the
         // select's check does too).

@@ -39,8 +39,9 @@ pub mod status {
     pub const SLIP: u8 = 8;
     /// (v2 `Telemetry`) the device's button is pressed.
     pub const BUTTON: u8 = 16;
-    /// (v2 `Telemetry`) the last `Select` was refused (values missing, the
-    /// check did not match, or an invalid model): nothing is rendered.
+    /// (v2 `Telemetry`) the last `Select` was refused: an invalid model
+    /// (nothing is rendered from then on), or values missing or a check
+    /// that did not match (the device goes on rendering what it did).
     pub const REFUSED: u8 = 32;
     /// (v2 `Telemetry`) a `Select` or `Clear` took effect at this tick.
     pub const SELECTED: u8 = 64;
