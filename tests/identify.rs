@@ -410,10 +410,15 @@ fn sessions_record_each_trials_device_stream_and_identify_reads_it() {
         let mut lines = text.lines();
         assert_eq!(
             lines.next(),
-            Some("t_s,x_m,v_m_s,force_n,vibration,render,selected,watchdog")
+            Some("t_s,x_m,v_m_s,force_n,vibration,render,selected,watchdog,tick")
         );
+        // The simulated device has no device tick: `tick` is empty.
         let rows: Vec<Vec<f64>> = lines
-            .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+            .map(|l| {
+                let (values, tick) = l.rsplit_once(',').unwrap();
+                assert_eq!(tick, "", "{l}");
+                values.split(',').map(|x| x.parse().unwrap()).collect()
+            })
             .collect();
         // Every loop tick of the trial, at 1 kHz.
         let expected = (r.ended_s - r.started_s) * 1000.0;
