@@ -3,10 +3,16 @@
 //! hardware and `f64` in software, about 8,000 instructions for a step with
 //! an `exp` and a `sin`).
 //!
-//! Every function goes through `libm`, never the platform's C library, so a
-//! model computes the same bits on every target: a host re-render in `f32`
-//! reproduces what the device rendered exactly. Rust never fuses a multiply
-//! and an add on its own, so plain arithmetic is the same everywhere too.
+//! Every function goes through `libm` (or, for `f32`'s `sin`, our own code
+//! below), never the platform's C library, so a model computes the same
+//! bits on every target: a host re-render in `f32` reproduces what the
+//! device rendered exactly. Rust never fuses a multiply and an add on its
+//! own, so plain arithmetic is the same everywhere too.
+//!
+//! `f32`'s `sin` is [`sin_f32`], in `f32` arithmetic only: `libm::sinf`
+//! reduces its argument and sums its polynomial in `f64`, which a Cortex-M4F
+//! does in software (the god object's slip vibration, a `sin` every step,
+//! cost about 1,900 instructions a step with it).
 
 use core::fmt::Debug;
 use core::ops::{Add, AddAssign, Div, DivAssign, Mul, MulAssign, Neg, Rem, Sub, SubAssign};
@@ -165,7 +171,7 @@ impl Real for f32 {
         libm::expf(self)
     }
     fn sin(self) -> Self {
-        libm::sinf(self)
+        sin_f32(self)
     }
     fn cos(self) -> Self {
         libm::cosf(self)
@@ -189,5 +195,76 @@ impl Real for f32 {
     fn to_count(self) -> u32 {
         // `as` saturates and maps NaN to 0.
         self as u32
+    }
+}
+
+/// `sin(x)` in `f32` arithmetic only (Cephes' `sinf`): `x` reduced by
+/// multiples of pi/4 with pi/4 split in three (exact products up to
+/// |x| = 8192), then a degree-7 odd or degree-8 even polynomial on
+/// [-pi/4, pi/4]. Within 1.2e-7 (2 ulp near 1) of the true sine for |x| <= 8192 (tested
+/// against `f64`); beyond that, and for NaN and infinities, `libm::sinf`.
+#[must_use]
+pub fn sin_f32(x: f32) -> f32 {
+    const FOUR_OVER_PI: f32 = 1.273_239_5;
+    const DP1: f32 = 0.785_156_25;
+    const DP2: f32 = 2.418_756_5e-4;
+    const DP3: f32 = 3.774_895e-8;
+    let ax = libm::fabsf(x);
+    if ax.is_nan() || ax > 8192.0 {
+        return libm::sinf(x);
+    }
+    // The octant: a whole number below 2^14, exact in f32 and u32.
+    #[expect(
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        reason = "0 <= ax * 4/pi < 2^14"
+    )]
+    let mut j = (ax * FOUR_OVER_PI) as u32;
+    #[expect(clippy::cast_precision_loss, reason = "j < 2^14 is exact")]
+    let mut y = j as f32;
+    if j & 1 == 1 {
+        j += 1;
+        y += 1.0;
+    }
+    j &= 7;
+    let mut negative = x.is_sign_negative();
+    if j > 3 {
+        negative = !negative;
+        j -= 4;
+    }
+    let r = ((ax - y * DP1) - y * DP2) - y * DP3;
+    let z = r * r;
+    let v = if j == 1 || j == 2 {
+        let p = ((2.443_315_7e-5 * z - 1.388_731_6e-3) * z + 4.166_664_6e-2) * z * z;
+        (p - 0.5 * z) + 1.0
+    } else {
+        ((-1.951_529_6e-4 * z + 8.332_161e-3) * z - 1.666_665_5e-1) * z * r + r
+    };
+    if negative { -v } else { v }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::sin_f32;
+
+    #[test]
+    fn sin_f32_is_within_1_2e_7_of_the_sine_up_to_8192_and_libm_beyond() {
+        let mut worst = 0.0_f64;
+        let mut x = -8192.0_f32;
+        while x <= 8192.0 {
+            let err = (f64::from(sin_f32(x)) - libm::sin(f64::from(x))).abs();
+            worst = worst.max(err);
+            x += 0.0137;
+        }
+        for k in 0..200_000 {
+            let x = k as f32 * 1e-4;
+            let err = (f64::from(sin_f32(x)) - libm::sin(f64::from(x))).abs();
+            worst = worst.max(err);
+        }
+        assert!(worst < 1.2e-7, "worst error {worst:e}");
+        assert_eq!(sin_f32(1e6), libm::sinf(1e6));
+        assert!(sin_f32(f32::NAN).is_nan());
+        assert_eq!(sin_f32(0.0), 0.0);
+        assert_eq!(sin_f32(-0.0).to_bits(), (-0.0_f32).to_bits());
     }
 }
