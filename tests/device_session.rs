@@ -136,7 +136,17 @@ fn a_device_that_never_comes_back_ends_the_run_with_exit_3() {
     let emu = common::emulator(&dev);
     let out = dir.path().join("results");
     let session = run("magnitude-quick", &out, &dev, &["--device-timeout", "1.5"]);
-    std::thread::sleep(Duration::from_secs(3));
+    // Unplugged once a trial is on disk (a fixed wait can come before the
+    // first trial ends on a loaded machine).
+    let log = log_of(&out, "magnitude-quick");
+    let waited = Instant::now();
+    while !read_log(&log).is_ok_and(|l| l.trials.iter().any(|r| r.status == Status::Completed)) {
+        assert!(
+            waited.elapsed() < Duration::from_mins(1),
+            "no trial completed"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
     unplug(emu, &dev);
     let started = Instant::now();
     let o = session.wait_with_output().unwrap();
