@@ -281,58 +281,6 @@ fn a_session_through_a_pty_relay_opened_2_s_after_the_emulator_completes_issue_1
     eprintln!("session through the relay: {took:?}");
 }
 
-/// What re-rendering a results folder's streams found.
-struct Rerenders {
-    streams: usize,
-    /// Rows replayed.
-    rows: usize,
-    /// Largest force and vibration differences.
-    force: f64,
-    vibration: f64,
-    /// Who rendered (each mode once).
-    modes: Vec<String>,
-    /// Each stream's report.
-    reports: Vec<serde_json::Value>,
-}
-
-/// Re-renders every stream of a results folder.
-fn rerender_all(out: &Path) -> Rerenders {
-    let mut streams: Vec<_> = std::fs::read_dir(out.join("streams"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .collect();
-    streams.sort();
-    let mut all = Rerenders {
-        streams: streams.len(),
-        rows: 0,
-        force: 0.0,
-        vibration: 0.0,
-        modes: Vec::new(),
-        reports: Vec::new(),
-    };
-    for s in &streams {
-        let o = Command::new(env!("CARGO_BIN_EXE_frictionlab"))
-            .arg("rerender")
-            .arg(s)
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-        all.rows +=
-            usize::try_from(r["rows"].as_u64().unwrap() - r["skipped"].as_u64().unwrap()).unwrap();
-        all.force = all.force.max(r["max_force_diff_n"].as_f64().unwrap());
-        all.vibration = all.vibration.max(r["max_vibration_diff"].as_f64().unwrap());
-        for m in r["modes"].as_array().unwrap() {
-            let m = m.as_str().unwrap().to_owned();
-            if !all.modes.contains(&m) {
-                all.modes.push(m);
-            }
-        }
-        all.reports.push(r);
-    }
-    all
-}
-
 /// Issue 15: the three quick protocols run end to end on an emulator that
 /// renders on board (magnitude-quick's stick-slip at 5 kHz on the device),
 /// every trial logged as rendered on board, and every stream re-renders on
@@ -367,7 +315,7 @@ fn sessions_on_an_on_board_emulator_complete_and_rerender_bit_exact_issue_15() {
                 assert_eq!(e.rate_hz, 5000.0, "the device's loop rate");
             }
         }
-        let r = rerender_all(&out);
+        let r = common::rerender_all(&out);
         eprintln!(
             "{protocol} on board: {} streams, {} rows re-rendered, max |dF| {} N, max |dvib| {}, modes {:?}",
             r.streams, r.rows, r.force, r.vibration, r.modes
@@ -393,7 +341,7 @@ fn a_version_1_device_is_rendered_by_the_host_loop_and_its_streams_rerender_issu
     a_whole_session_runs_on(&dev, &out, MAGNITUDE_QUICK);
     emu.kill().unwrap();
     emu.wait().unwrap();
-    let r = rerender_all(&out);
+    let r = common::rerender_all(&out);
     eprintln!(
         "host loop: {} streams, {} rows re-rendered, max |dF| {} N, max |dvib| {}",
         r.streams, r.rows, r.force, r.vibration
@@ -460,7 +408,7 @@ fn stick_slip_through(
         Some(latency) => through_relay(dev, latency, run),
         None => run(dev),
     }
-    let r = rerender_all(out);
+    let r = common::rerender_all(out);
     let count = |key: &str| -> u64 { r.reports.iter().map(|r| r[key].as_u64().unwrap()).sum() };
     let seconds: f64 = r
         .reports

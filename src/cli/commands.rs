@@ -226,6 +226,47 @@ pub(super) fn emulator_command(path: &Path, on_board: bool) -> Result<(), Failur
         .map_err(|e| device_failure(&place, e.to_string()))
 }
 
+pub(super) fn firmware_qemu_command(elf: &Path, link: Option<&Path>) -> Result<(), Failure> {
+    use crate::device::{emulator, qemu};
+    let place = elf.display().to_string();
+    let mut board = qemu::boot(elf).map_err(|e| match e {
+        qemu::BootError::NoFirmware => Failure::from(vec![UserError::new(&place, e.to_string())]),
+        _ => device_failure(&place, e.to_string()),
+    })?;
+    let mut linked = String::new();
+    if let Some(link) = link {
+        // A link to a pseudo-terminal (an earlier QEMU's: a host may still
+        // hold it open) is this command's to replace.
+        if std::fs::read_link(link).is_ok_and(|t| t.parent() == board.pty.parent()) {
+            let _ = std::fs::remove_file(link);
+        }
+        if let Err(e) = emulator::link_pty(link, &board.pty) {
+            let _ = board.child.kill();
+            return Err(Failure::from(vec![UserError::new(
+                link.display().to_string(),
+                e.to_string(),
+            )]));
+        }
+        linked = format!(", linked at {}", link.display());
+    }
+    emit(&format!(
+        "firmware on QEMU mps2-an386: {}{linked}\n",
+        board.pty.display()
+    ))?;
+    let status = board
+        .child
+        .wait()
+        .map_err(|e| device_failure(&place, e.to_string()))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(device_failure(
+            &place,
+            format!("{} ended: {status}", qemu::QEMU),
+        ))
+    }
+}
+
 /// This process's peak resident memory, MiB (Linux: `VmHWM`).
 fn peak_memory_mib() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;

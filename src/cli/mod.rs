@@ -15,8 +15,9 @@ use crate::session::{DeviceChoice, SessionError};
 mod commands;
 
 use commands::{
-    analyze_command, claims_command, emulator_command, gui_command, identify_command, models_json,
-    ports_command, render_command, run_command, simulate_command, validate_command,
+    analyze_command, claims_command, emulator_command, firmware_qemu_command, gui_command,
+    identify_command, models_json, ports_command, render_command, run_command, simulate_command,
+    validate_command,
 };
 
 /// `--device`: `sim` (the simulated apparatus) or a serial port's path.
@@ -128,6 +129,20 @@ enum Command {
         /// that applies the host's force commands.
         #[arg(long)]
         on_board: bool,
+    },
+    /// Boots the firmware (`firmware/`) in QEMU's mps2-an386 and prints the
+    /// pseudo-terminal its UART is on, for `run --device PATH`; runs until
+    /// stopped (Ctrl-C) or QEMU ends.
+    FirmwareQemu {
+        /// The firmware: by default where `cargo build --release -p
+        /// frictionlab-firmware --target thumbv7em-none-eabihf` puts it.
+        #[arg(long, default_value = crate::device::qemu::FIRMWARE_ELF)]
+        elf: PathBuf,
+        /// Also link the pseudo-terminal here (nothing may be there but a
+        /// link to a pseudo-terminal, which is replaced): a path that stays
+        /// the same when QEMU is started again.
+        #[arg(long)]
+        link: Option<PathBuf>,
     },
     /// Renders a recorded trial stream again, its models taken from the
     /// session log, and prints (JSON) the largest difference from the
@@ -311,6 +326,7 @@ pub fn main() -> ExitCode {
         Command::Identify(args) => identify_command(&args),
         Command::Ports => ports_command(),
         Command::DeviceEmulator { path, on_board } => emulator_command(&path, on_board),
+        Command::FirmwareQemu { elf, link } => firmware_qemu_command(&elf, link.as_deref()),
         Command::Schema { which } => emit(&if which == "log" {
             crate::results::log_json_schema()
         } else {

@@ -426,6 +426,10 @@ pub enum OpenError {
     /// The new pseudo-terminal could not be linked at the path.
     #[error("cannot link: {0}")]
     Link(std::io::Error),
+    /// Something is at the path already (a new pseudo-terminal's link goes
+    /// only where nothing is, or a link to a pseudo-terminal that is gone).
+    #[error("something is there already (a link goes only where nothing is)")]
+    Exists,
 }
 
 /// An emulator on its port, ready to [`serve`](Emulator::serve).
@@ -474,12 +478,6 @@ pub fn open(path: &Path) -> Result<Emulator, OpenError> {
         Err(e) if e.kind() != ErrorKind::NotFound => return Err(OpenError::Inspect(e)),
         Err(_) => {}
     }
-    // Nothing there, or a link to nothing.
-    let dangling = match std::fs::read_link(path) {
-        Ok(target) => Some(target),
-        Err(e) if e.kind() == ErrorKind::NotFound => None,
-        Err(e) => return Err(OpenError::Inspect(e)),
-    };
     let (mut master, slave) = serialport::TTYPort::pair().map_err(OpenError::Pty)?;
     serialport::SerialPort::set_timeout(&mut master, PORT_TIMEOUT).map_err(OpenError::Pty)?;
     let slave_path = serialport::SerialPort::name(&slave).map_or_else(
@@ -491,13 +489,7 @@ pub fn open(path: &Path) -> Result<Emulator, OpenError> {
         },
         |name| Ok(PathBuf::from(name)),
     )?;
-    if let Some(target) = &dangling {
-        if target.parent() != slave_path.parent() {
-            return Err(OpenError::DanglingLink(target.clone()));
-        }
-        std::fs::remove_file(path).map_err(OpenError::Unlink)?;
-    }
-    std::os::unix::fs::symlink(&slave_path, path).map_err(OpenError::Link)?;
+    let dangling = link_pty(path, &slave_path)?;
     Ok(Emulator {
         port: master,
         _slave: Some(slave),
@@ -506,6 +498,34 @@ pub fn open(path: &Path) -> Result<Emulator, OpenError> {
             replaced: dangling,
         },
     })
+}
+
+/// Links the pseudo-terminal `slave` at `path`, where nothing may be but a
+/// dangling link to a pseudo-terminal (an earlier emulator's or QEMU's,
+/// gone), which is replaced; returns where that link pointed.
+///
+/// # Errors
+/// Something else at `path`, or the link failed.
+pub fn link_pty(path: &Path, slave: &Path) -> Result<Option<PathBuf>, OpenError> {
+    match std::fs::metadata(path) {
+        Ok(_) => return Err(OpenError::Exists),
+        Err(e) if e.kind() != ErrorKind::NotFound => return Err(OpenError::Inspect(e)),
+        Err(_) => {}
+    }
+    // Nothing there, or a link to nothing.
+    let dangling = match std::fs::read_link(path) {
+        Ok(target) => Some(target),
+        Err(e) if e.kind() == ErrorKind::NotFound => None,
+        Err(e) => return Err(OpenError::Inspect(e)),
+    };
+    if let Some(target) = &dangling {
+        if target.parent() != slave.parent() {
+            return Err(OpenError::DanglingLink(target.clone()));
+        }
+        std::fs::remove_file(path).map_err(OpenError::Unlink)?;
+    }
+    std::os::unix::fs::symlink(slave, path).map_err(OpenError::Link)?;
+    Ok(dangling)
 }
 
 /// Opens the existing `path` as a port.

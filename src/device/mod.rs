@@ -7,6 +7,7 @@
 pub mod emulator;
 pub mod haptic;
 pub mod link;
+pub mod qemu;
 pub mod sim;
 pub mod transport;
 pub mod wire;

@@ -137,3 +137,55 @@ pub fn completed_trials(log: &frictionlab::results::ReadLog) -> Vec<usize> {
     completed.sort_unstable();
     completed
 }
+
+/// What re-rendering a results folder's streams found.
+pub struct Rerenders {
+    pub streams: usize,
+    /// Rows replayed.
+    pub rows: usize,
+    /// Largest force and vibration differences.
+    pub force: f64,
+    pub vibration: f64,
+    /// Who rendered (each mode once).
+    pub modes: Vec<String>,
+    /// Each stream's report.
+    pub reports: Vec<serde_json::Value>,
+}
+
+/// Re-renders every stream of a results folder.
+pub fn rerender_all(out: &std::path::Path) -> Rerenders {
+    let mut streams: Vec<_> = std::fs::read_dir(out.join("streams"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    streams.sort();
+    let mut all = Rerenders {
+        streams: streams.len(),
+        rows: 0,
+        force: 0.0,
+        vibration: 0.0,
+        modes: Vec::new(),
+        reports: Vec::new(),
+    };
+    for s in &streams {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_frictionlab"))
+            .arg("rerender")
+            .arg(s)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        all.rows +=
+            usize::try_from(r["rows"].as_u64().unwrap() - r["skipped"].as_u64().unwrap()).unwrap();
+        all.force = all.force.max(r["max_force_diff_n"].as_f64().unwrap());
+        all.vibration = all.vibration.max(r["max_vibration_diff"].as_f64().unwrap());
+        for m in r["modes"].as_array().unwrap() {
+            let m = m.as_str().unwrap().to_owned();
+            if !all.modes.contains(&m) {
+                all.modes.push(m);
+            }
+        }
+        all.reports.push(r);
+    }
+    all
+}

@@ -1,0 +1,398 @@
+//! Issue 16: the firmware (`firmware/`) end to end in QEMU's mps2-an386.
+//!
+//! Each test builds the firmware for `thumbv7em-none-eabihf` (once per test
+//! binary, into its own target folder so the build does not wait on the
+//! test run's lock), boots it with `frictionlab firmware-qemu --link`, and
+//! drives it as a user would. QEMU (`qemu-system-arm`) comes from `.ci/run`;
+//! without it the tests fail under CI (`CI` set) and are skipped elsewhere.
+//! They run one at a time: QEMU and a session's haptic loop take the
+//! machine's two cores.
+
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    reason = "a failed unwrap is a failed test"
+)]
+
+mod common;
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::sync::{Mutex, MutexGuard, OnceLock};
+use std::time::{Duration, Instant};
+
+use frictionlab::device::wire::{Decoder, MAX_FRAME, Message, encode, status};
+use frictionlab::protocol::engine::{RenderMode, Status};
+use frictionlab::results::read_log;
+
+/// One QEMU at a time.
+static TURN: Mutex<()> = Mutex::new(());
+
+fn turn() -> MutexGuard<'static, ()> {
+    TURN.lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// Whether QEMU is here: under CI it must be (a missing QEMU fails).
+fn qemu_here() -> bool {
+    let here = Command::new("qemu-system-arm")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    assert!(
+        here || std::env::var_os("CI").is_none(),
+        "qemu-system-arm is missing: .ci/run installs it (apt-get install qemu-system-arm)"
+    );
+    if !here {
+        eprintln!("skipped: qemu-system-arm is not installed");
+    }
+    here
+}
+
+/// QEMU's turn, a temporary folder and the board's link path in it; `None`
+/// when the test is skipped (no QEMU outside CI).
+fn setup() -> Option<(MutexGuard<'static, ()>, tempfile::TempDir, PathBuf)> {
+    if !qemu_here() {
+        return None;
+    }
+    let turn = turn();
+    let dir = tempfile::tempdir().unwrap();
+    let dev = dir.path().join("dev");
+    Some((turn, dir, dev))
+}
+
+/// The firmware's folder of build outputs, built once per test binary.
+fn firmware_dir() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let target = root.join("target/firmware-tests");
+        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+        let o = Command::new(cargo)
+            .current_dir(root)
+            .args(["build", "--release", "-p", "frictionlab-firmware"])
+            .args(["--target", "thumbv7em-none-eabihf", "--target-dir"])
+            .arg(&target)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        target.join("thumbv7em-none-eabihf/release")
+    })
+}
+
+/// `frictionlab firmware-qemu --link LINK`, in its own process group so
+/// that killing the group kills QEMU too.
+struct Board {
+    child: Child,
+}
+
+impl Board {
+    fn boot(link: &Path) -> Board {
+        use std::os::unix::process::CommandExt;
+        let mut child = Command::new(env!("CARGO_BIN_EXE_frictionlab"))
+            .args(["firmware-qemu", "--elf"])
+            .arg(firmware_dir().join("frictionlab-firmware"))
+            .arg("--link")
+            .arg(link)
+            .process_group(0)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap())
+            .read_line(&mut line)
+            .unwrap();
+        assert!(
+            line.starts_with("firmware on QEMU mps2-an386: /dev/pts/"),
+            "{line}"
+        );
+        assert!(line.contains(&format!("linked at {}", link.display())));
+        Board { child }
+    }
+
+    /// Kills QEMU and the command (the whole process group).
+    fn kill(&mut self) {
+        let _ = Command::new("kill")
+            .args(["-KILL", "--", &format!("-{}", self.child.id())])
+            .status();
+        let _ = self.child.wait();
+    }
+}
+
+impl Drop for Board {
+    fn drop(&mut self) {
+        self.kill();
+    }
+}
+
+fn run_session(protocol: &str, dev: &Path, out: &Path, extra: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_frictionlab"))
+        .arg("run")
+        .arg(format!(
+            "{}/protocols/{protocol}.json",
+            env!("CARGO_MANIFEST_DIR")
+        ))
+        .args(["--participant", "p", "--responder", "sim", "--seed", "7"])
+        .arg("--out")
+        .arg(out)
+        .arg("--device")
+        .arg(dev)
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+fn log_path(out: &Path, protocol: &str) -> PathBuf {
+    out.join(format!(
+        "logs/study-{}_subject-p_session-1_log.jsonl",
+        protocol.replace('-', "")
+    ))
+}
+
+/// magnitude-quick and paired-quick run on the firmware in QEMU, rendered
+/// on board (f32, the board's 5 kHz), and every stream re-renders on the
+/// host bit for bit.
+#[test]
+fn quick_sessions_run_on_the_firmware_in_qemu_and_rerender_bit_exact_issue_16() {
+    let Some((_turn, dir, dev)) = setup() else {
+        return;
+    };
+    let _board = Board::boot(&dev);
+    for (protocol, trials) in [("magnitude-quick", 6), ("paired-quick", 1)] {
+        let out = dir.path().join(protocol);
+        let o = run_session(protocol, &dev, &out, &[]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let log = read_log(&log_path(&out, protocol)).unwrap();
+        assert!(log.ended);
+        assert_eq!(
+            common::completed_trials(&log),
+            (0..trials).collect::<Vec<_>>()
+        );
+        for r in &log.trials {
+            for e in &r.rendering {
+                assert_eq!(e.mode, RenderMode::OnBoard, "trial {}", r.trial);
+                assert_eq!(e.float, frictionlab::friction::Float::F32);
+                assert_eq!(e.rate_hz, 5000.0, "the QEMU board's loop rate");
+            }
+        }
+        let r = common::rerender_all(&out);
+        let missing: u64 = r
+            .reports
+            .iter()
+            .map(|x| x["missing_ticks"].as_u64().unwrap())
+            .sum();
+        eprintln!(
+            "{protocol} on the QEMU firmware: {} streams, {} rows re-rendered, max |dF| {} N, max |dvib| {}, {missing} ticks of telemetry lost, aborted {}",
+            r.streams,
+            r.rows,
+            r.force,
+            r.vibration,
+            log.trials
+                .iter()
+                .filter(|t| t.status != Status::Completed)
+                .count()
+        );
+        assert_eq!(r.modes, ["on_board"]);
+        assert_eq!((r.force, r.vibration), (0.0, 0.0), "bit-exact");
+        assert!(r.rows > 10_000, "{} rows re-rendered", r.rows);
+    }
+}
+
+/// QEMU killed in the middle of a session: the trial under way is aborted
+/// and re-queued; QEMU started again at the same link, the session resumes
+/// and completes with every trial logged once.
+#[test]
+fn a_session_survives_qemu_killed_and_restarted_issue_16() {
+    let Some((_turn, dir, dev)) = setup() else {
+        return;
+    };
+    let out = dir.path().join("results");
+    let log = log_path(&out, "magnitude-quick");
+    let mut board = Board::boot(&dev);
+    let run = {
+        let (dev, out) = (dev.clone(), out.clone());
+        std::thread::spawn(move || run_session("magnitude-quick", &dev, &out, &[]))
+    };
+    // Kill QEMU once a trial is on disk, in the middle of the next one.
+    let start = Instant::now();
+    while read_log(&log).map_or(true, |l| l.trials.is_empty()) {
+        assert!(start.elapsed() < Duration::from_mins(1), "no trial logged");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    std::thread::sleep(Duration::from_millis(700));
+    board.kill();
+    std::thread::sleep(Duration::from_secs(2));
+    let _board = Board::boot(&dev);
+    let first = run.join().unwrap();
+    // The run finishes on the restarted board, or gives up (exit 3) and the
+    // session is resumed.
+    if !first.status.success() {
+        assert_eq!(
+            first.status.code(),
+            Some(3),
+            "{}",
+            String::from_utf8_lossy(&first.stderr)
+        );
+        let o = run_session("magnitude-quick", &dev, &out, &["--resume"]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let log = read_log(&log).unwrap();
+    assert!(log.ended);
+    assert_eq!(common::completed_trials(&log), (0..6).collect::<Vec<_>>());
+    let aborted: Vec<_> = log
+        .trials
+        .iter()
+        .filter(|t| t.status != Status::Completed)
+        .collect();
+    assert!(!aborted.is_empty(), "the kill aborted a trial");
+    assert!(aborted.iter().all(|t| t.requeued), "{aborted:?}");
+}
+
+/// A raw host on the firmware's pseudo-terminal.
+struct Host {
+    port: Box<dyn serialport::SerialPort>,
+    decoder: Decoder,
+}
+
+impl Host {
+    fn open(dev: &Path) -> Host {
+        let port = serialport::new(dev.to_str().unwrap(), 115_200)
+            .timeout(Duration::from_millis(5))
+            .open()
+            .unwrap();
+        Host {
+            port,
+            decoder: Decoder::new(),
+        }
+    }
+
+    fn send(&mut self, m: &Message) {
+        let mut frame = [0_u8; MAX_FRAME];
+        let n = encode(m, &mut frame).unwrap();
+        self.port.write_all(&frame[..n]).unwrap();
+    }
+
+    /// The telemetry that arrives within `for_s` (forces and flags), host
+    /// heartbeats every 5 ms unless `silent`.
+    fn telemetry(&mut self, for_s: f64, silent: bool) -> Vec<(f32, u8)> {
+        let mut got = Vec::new();
+        let mut buf = [0_u8; 4096];
+        let start = Instant::now();
+        let mut beat = Instant::now();
+        while start.elapsed().as_secs_f64() < for_s {
+            if !silent && beat.elapsed() >= Duration::from_millis(5) {
+                self.send(&Message::Heartbeat { seq: 1 });
+                beat = Instant::now();
+            }
+            let n = self.port.read(&mut buf).unwrap_or(0);
+            self.decoder.feed(&buf[..n], |m| {
+                if let Message::Telemetry { force_n, flags, .. } = m {
+                    got.push((force_n, flags));
+                }
+            });
+        }
+        got
+    }
+}
+
+/// In QEMU the firmware clamps a command above its limit, zeroes the force
+/// after 20 ms of host silence, and renders no force from a corrupted
+/// frame.
+#[test]
+fn the_firmware_clamps_keeps_its_watchdog_and_ignores_corrupted_frames_in_qemu_issue_16() {
+    let Some((_turn, _dir, dev)) = setup() else {
+        return;
+    };
+    let _board = Board::boot(&dev);
+    let mut host = Host::open(&dev);
+    host.send(&Message::Hello { version: 2 });
+    host.send(&Message::SetTelemetry { every: 1 });
+    // Above the clamp (9.48 N).
+    host.send(&Message::Command {
+        seq: 1,
+        force_n: 50.0,
+        vibration: 0.0,
+    });
+    let clamped = host.telemetry(0.3, false);
+    let last = clamped.last().copied().unwrap();
+    assert!(clamped.len() > 500, "{} telemetry", clamped.len());
+    assert_eq!(last.0, 9.48, "{last:?}");
+    assert_ne!(last.1 & status::CLAMPED, 0);
+    assert!(clamped.iter().all(|(f, _)| *f <= 9.48));
+    // Silence: the watchdog zeroes the force 20 ms on.
+    let quiet = host.telemetry(0.2, true);
+    let zeroed = quiet.iter().position(|(f, _)| *f == 0.0).unwrap();
+    assert!(
+        quiet[zeroed..]
+            .iter()
+            .all(|(f, flags)| *f == 0.0 && flags & status::WATCHDOG != 0),
+        "the force stays zero while the host is silent"
+    );
+    // 3 N in frames with one byte changed each: never rendered.
+    host.send(&Message::Command {
+        seq: 2,
+        force_n: 1.0,
+        vibration: 0.0,
+    });
+    host.telemetry(0.1, false);
+    let mut frame = [0_u8; MAX_FRAME];
+    let n = encode(
+        &Message::Command {
+            seq: 3,
+            force_n: 3.0,
+            vibration: 0.0,
+        },
+        &mut frame,
+    )
+    .unwrap();
+    for k in 0..n - 1 {
+        let mut bad = frame;
+        bad[k] ^= 0x24;
+        host.port.write_all(&bad[..n]).unwrap();
+        host.port.write_all(&[0]).unwrap();
+    }
+    let after = host.telemetry(0.2, false);
+    assert!(!after.is_empty());
+    assert!(
+        after.iter().all(|(f, _)| *f == 1.0),
+        "only the intact 1 N command is rendered: {:?}",
+        after.iter().map(|(f, _)| *f).collect::<Vec<_>>()
+    );
+}
+
+/// Instructions per model step on the device (QEMU, `-icount shift=0`),
+/// each under 1,000 (10% of a 10 kHz loop at 100 MHz).
+#[test]
+fn every_model_step_costs_under_1000_instructions_on_the_device_issue_16() {
+    if !qemu_here() {
+        return;
+    }
+    let _turn = turn();
+    let o = Command::new("qemu-system-arm")
+        .args(["-M", "mps2-an386", "-icount", "shift=0", "-nographic"])
+        .args(["-monitor", "none", "-serial", "null"])
+        .args(["-semihosting-config", "enable=on,target=native", "-kernel"])
+        .arg(firmware_dir().join("step-cost"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    let costs: Vec<(String, u32)> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("cost "))
+        .map(|l| {
+            let (name, n) = l.rsplit_once(' ').unwrap();
+            (name.to_owned(), n.parse().unwrap())
+        })
+        .collect();
+    eprintln!("{text}");
+    assert_eq!(costs.len(), 9, "8 models and the firmware tick: {text}");
+    for (name, n) in &costs {
+        if name.starts_with("firmware-tick") {
+            continue;
+        }
+        assert!(*n > 0 && *n < 1000, "{name}: {n} instructions a step");
+    }
+}
