@@ -4,7 +4,11 @@
 use std::path::PathBuf;
 
 fn main() {
-    let board = "qemu-mps2-an386";
+    let board = if std::env::var_os("CARGO_FEATURE_STM32F401").is_some() {
+        "stm32f401"
+    } else {
+        "qemu-mps2-an386"
+    };
     let out = PathBuf::from(std::env::var_os("OUT_DIR").unwrap_or_default());
     let memory = std::fs::read(format!("memory/{board}.x"))
         .unwrap_or_else(|e| panic!("memory/{board}.x: {e}"));

@@ -1,5 +1,6 @@
 //! The board-support traits: what the firmware needs of a board. QEMU's
-//! mps2-an386 with a simulated plant (`qemu`) implements them.
+//! mps2-an386 with a simulated plant (`qemu`) and an STM32F401 "Black
+//! Pill" driving a motor (`stm32f401`) implement them.
 
 use frictionlab_core::friction::Input;
 use frictionlab_core::onboard::Apparatus;

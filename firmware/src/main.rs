@@ -9,15 +9,20 @@
 //! before it ended (a missed tick), for the `LoopReport`. The main loop
 //! moves bytes between the link and the firmware. No allocation.
 //!
-//! The board is a cargo feature: `qemu-mps2-an386` (the default, and so
-//! far the only one).
+//! The board is a cargo feature: `qemu-mps2-an386` (the default) or
+//! `stm32f401` (`--no-default-features --features stm32f401`).
 #![no_std]
 #![no_main]
 
 mod app;
 mod board;
+#[cfg(all(feature = "qemu-mps2-an386", feature = "stm32f401"))]
+compile_error!("choose one board: --no-default-features --features stm32f401");
+
 #[cfg(feature = "qemu-mps2-an386")]
 mod qemu;
+#[cfg(feature = "stm32f401")]
+mod stm32f401;
 
 use core::cell::RefCell;
 
@@ -32,6 +37,8 @@ use board::{Board, Serial};
 
 #[cfg(feature = "qemu-mps2-an386")]
 use qemu as hw;
+#[cfg(feature = "stm32f401")]
+use stm32f401 as hw;
 
 /// The firmware's state, shared by the loop interrupt and the main loop.
 static SHARED: Mutex<RefCell<Option<Shared<hw::Hw>>>> = Mutex::new(RefCell::new(None));
