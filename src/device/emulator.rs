@@ -478,6 +478,8 @@ pub fn open(path: &Path) -> Result<Emulator, OpenError> {
         Err(e) if e.kind() != ErrorKind::NotFound => return Err(OpenError::Inspect(e)),
         Err(_) => {}
     }
+    // Nothing there, or a link to nothing.
+    let dangling = free_place(path)?;
     let (mut master, slave) = serialport::TTYPort::pair().map_err(OpenError::Pty)?;
     serialport::SerialPort::set_timeout(&mut master, PORT_TIMEOUT).map_err(OpenError::Pty)?;
     let slave_path = serialport::SerialPort::name(&slave).map_or_else(
@@ -489,7 +491,7 @@ pub fn open(path: &Path) -> Result<Emulator, OpenError> {
         },
         |name| Ok(PathBuf::from(name)),
     )?;
-    let dangling = link_pty(path, &slave_path)?;
+    place_link(path, &slave_path, dangling.as_deref())?;
     Ok(Emulator {
         port: master,
         _slave: Some(slave),
@@ -507,25 +509,37 @@ pub fn open(path: &Path) -> Result<Emulator, OpenError> {
 /// # Errors
 /// Something else at `path`, or the link failed.
 pub fn link_pty(path: &Path, slave: &Path) -> Result<Option<PathBuf>, OpenError> {
+    let dangling = free_place(path)?;
+    place_link(path, slave, dangling.as_deref())?;
+    Ok(dangling)
+}
+
+/// Checks that nothing is at `path` but perhaps a dangling link; returns
+/// where that link points. (Checked before a new pseudo-terminal is made:
+/// it may get the number of the one a dangling link names.)
+fn free_place(path: &Path) -> Result<Option<PathBuf>, OpenError> {
     match std::fs::metadata(path) {
         Ok(_) => return Err(OpenError::Exists),
         Err(e) if e.kind() != ErrorKind::NotFound => return Err(OpenError::Inspect(e)),
         Err(_) => {}
     }
-    // Nothing there, or a link to nothing.
-    let dangling = match std::fs::read_link(path) {
-        Ok(target) => Some(target),
-        Err(e) if e.kind() == ErrorKind::NotFound => None,
-        Err(e) => return Err(OpenError::Inspect(e)),
-    };
-    if let Some(target) = &dangling {
+    match std::fs::read_link(path) {
+        Ok(target) => Ok(Some(target)),
+        Err(e) if e.kind() == ErrorKind::NotFound => Ok(None),
+        Err(e) => Err(OpenError::Inspect(e)),
+    }
+}
+
+/// Links `slave` at `path`, replacing the `dangling` link [`free_place`]
+/// found if it pointed where pseudo-terminals live.
+fn place_link(path: &Path, slave: &Path, dangling: Option<&Path>) -> Result<(), OpenError> {
+    if let Some(target) = dangling {
         if target.parent() != slave.parent() {
-            return Err(OpenError::DanglingLink(target.clone()));
+            return Err(OpenError::DanglingLink(target.to_owned()));
         }
         std::fs::remove_file(path).map_err(OpenError::Unlink)?;
     }
-    std::os::unix::fs::symlink(slave, path).map_err(OpenError::Link)?;
-    Ok(dangling)
+    std::os::unix::fs::symlink(slave, path).map_err(OpenError::Link)
 }
 
 /// Opens the existing `path` as a port.
