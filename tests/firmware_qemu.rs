@@ -355,11 +355,16 @@ fn the_firmware_clamps_keeps_its_watchdog_and_ignores_corrupted_frames_in_qemu_i
     }
     let after = host.telemetry(0.2, false);
     assert!(!after.is_empty());
+    // A heartbeat late by more than 20 ms (a loaded machine) zeroes the
+    // force under the watchdog flag; any other tick renders the intact 1 N.
     assert!(
-        after.iter().all(|(f, _)| *f == 1.0),
+        after
+            .iter()
+            .all(|(f, flags)| *f == 1.0 || (*f == 0.0 && flags & status::WATCHDOG != 0)),
         "only the intact 1 N command is rendered: {:?}",
         after.iter().map(|(f, _)| *f).collect::<Vec<_>>()
     );
+    assert!(after.iter().filter(|(f, _)| *f == 1.0).count() > after.len() / 2);
 }
 
 /// Instructions per model step on the device (QEMU, `-icount shift=0`),
