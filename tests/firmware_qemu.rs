@@ -268,6 +268,29 @@ impl Host {
         }
     }
 
+    /// Says `Hello` until the firmware answers: QEMU notices a new client
+    /// on its pseudo-terminal only on its next poll (up to 1 s), and drops
+    /// what comes before.
+    fn hello(&mut self) {
+        let mut buf = [0_u8; 4096];
+        let start = Instant::now();
+        loop {
+            assert!(start.elapsed() < Duration::from_secs(10), "no Capabilities");
+            self.send(&Message::Hello { version: 2 });
+            let asked = Instant::now();
+            let mut answered = false;
+            while asked.elapsed() < Duration::from_millis(100) {
+                let n = self.port.read(&mut buf).unwrap_or(0);
+                self.decoder.feed(&buf[..n], |m| {
+                    answered |= matches!(m, Message::Capabilities { .. });
+                });
+            }
+            if answered {
+                return;
+            }
+        }
+    }
+
     fn send(&mut self, m: &Message) {
         let mut frame = [0_u8; MAX_FRAME];
         let n = encode(m, &mut frame).unwrap();
@@ -307,7 +330,7 @@ fn the_firmware_clamps_keeps_its_watchdog_and_ignores_corrupted_frames_in_qemu_i
     };
     let _board = Board::boot(&dev);
     let mut host = Host::open(&dev);
-    host.send(&Message::Hello { version: 2 });
+    host.hello();
     host.send(&Message::SetTelemetry { every: 1 });
     // Above the clamp (9.48 N).
     host.send(&Message::Command {
