@@ -195,7 +195,28 @@ fn quick_sessions_run_on_the_firmware_in_qemu_and_rerender_bit_exact_issue_16() 
                 .count()
         );
         assert_eq!(r.modes, ["on_board"]);
-        assert_eq!((r.force, r.vibration), (0.0, 0.0), "bit-exact");
+        let inexact: Vec<String> = r
+            .reports
+            .iter()
+            .filter(|x| x["bit_exact"] != true)
+            .map(|x| {
+                format!(
+                    "{} (trial {} run {}): rows {} skipped {} worst row {} max |dF| {} N, missing {}",
+                    x["stream"], x["trial"], x["run"], x["rows"], x["skipped"],
+                    x["worst_row"], x["max_force_diff_n"], x["missing_ticks"]
+                )
+            })
+            .collect();
+        let statuses: Vec<String> = log
+            .trials
+            .iter()
+            .map(|t| format!("trial {} {:?}", t.trial, t.status))
+            .collect();
+        assert_eq!(
+            (r.force, r.vibration),
+            (0.0, 0.0),
+            "bit-exact: {inexact:#?}, records {statuses:?}"
+        );
         assert!(r.rows > 10_000, "{} rows re-rendered", r.rows);
     }
 }
