@@ -372,12 +372,6 @@ impl<T: Real> Firmware<T> {
         }
     }
 
-    /// The loop step, s.
-    #[must_use]
-    pub fn dt(&self) -> T {
-        self.board.dt()
-    }
-
     /// Whether a host is there (see the type's docs).
     #[must_use]
     pub fn has_host(&self) -> bool {

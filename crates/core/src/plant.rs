@@ -201,13 +201,6 @@ impl SimDevice {
     }
 
     /// Advances by `dt` with the hand pushing with `hand_force_n` and the
-    /// motor applying `force_n` (already limited by the caller), as a device
-    /// driven by a host does.
-    pub fn step_commanded(&mut self, dt: f64, hand_force_n: f64, force_n: f64) -> DeviceSample {
-        self.step_with(dt, hand_force_n, |_| force_n)
-    }
-
-    /// Advances by `dt` with the hand pushing with `hand_force_n` and the
     /// motor applying the force `firmware` computes from what the device
     /// sensed this tick, as a device rendering on board does.
     pub fn step_with(
