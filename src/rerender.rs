@@ -32,6 +32,13 @@
 //! through those ticks, so the replay stops at the first such gap and
 //! reports the missing ticks and the rows it did not replay.
 //!
+//! # A device started afresh
+//! An on-board device changes its render only by a select (marked
+//! `selected`), except when a new connection's `Hello` starts it afresh
+//! (nothing rendered, no select). A row whose render changed unmarked is
+//! such a restart, from a state the stream does not show: the replay stops
+//! there too (`restarted_row`).
+//!
 //! # The watchdog
 //! Where a row is marked `watchdog` the device rendered nothing (no message
 //! from the host for 20 ms) while its model kept stepping, so an on-board
@@ -112,8 +119,14 @@ pub struct Rerendered {
     /// through ticks the stream does not show, so the replay stops at the
     /// first gap.
     pub missing_ticks: usize,
-    /// Rows after the first gap, not replayed.
+    /// Rows after the first gap or restart, not replayed.
     pub unreplayed_rows: usize,
+    /// The first replayed on-board row whose render changed without a
+    /// select: the device started afresh there (a new connection's
+    /// `Hello`), in a state the stream does not show, so the replay stops
+    /// at it. A session ends a trial's stream where its device is lost, so
+    /// its streams have none.
+    pub restarted_row: Option<usize>,
     /// Stick-to-slip transitions of the replayed models (Nakano's stick-slip
     /// and the god object; the other models have none).
     pub slip_onsets: usize,
@@ -152,7 +165,9 @@ pub fn rerender_file(path: &Path) -> Result<Rerendered, Problem> {
                 format!("no record of trial {trial}, presentation {run}"),
             )
         })?;
-    if record.rendering.is_empty() {
+    // A trial aborted before the device's first tick has neither rows
+    // nor renders: nothing to replay.
+    if record.rendering.is_empty() && !rows.is_empty() {
         return Err(Problem::new(
             log_path.display().to_string(),
             format!(
@@ -307,6 +322,7 @@ pub fn rerender(rows: &[Row], entries: &[RenderEntry]) -> Rerendered {
         replayed_s: 0.0,
         missing_ticks: 0,
         unreplayed_rows: 0,
+        restarted_row: None,
         slip_onsets: 0,
         bursts: 0,
     };
@@ -352,6 +368,17 @@ fn missing_ticks(a: &Row, b: &Row, entries: &[RenderEntry]) -> usize {
     }
 }
 
+/// Whether `b` shows an on-board device that changed its render since `a`
+/// without a select (started afresh).
+fn restarted(a: &Row, b: &Row, entries: &[RenderEntry]) -> bool {
+    let on_board = |r: &Row| {
+        entries
+            .get(r.render)
+            .is_some_and(|e| e.mode == RenderMode::OnBoard)
+    };
+    b.render != a.render && !b.selected && (on_board(a) || on_board(b))
+}
+
 fn replay<T: Real>(rows: &[Row], entries: &[RenderEntry], start: usize, out: &mut Rerendered) {
     let Some(entry) = rows.get(start).and_then(|r| entries.get(r.render)) else {
         return;
@@ -361,14 +388,20 @@ fn replay<T: Real>(rows: &[Row], entries: &[RenderEntry], start: usize, out: &mu
     let dt = T::of(1.0 / entry.rate_hz);
     let mut current = None;
     let mut vibrates = false;
-    // One pass over the gaps: their total, and the first after the start
-    // (where the replay ends).
+    // One pass over the gaps: their total, and the first gap or restart
+    // after the start (where the replay ends).
     let mut end = rows.len();
     for (i, w) in rows.windows(2).enumerate() {
         let missing = missing_ticks(&w[0], &w[1], entries);
         out.missing_ticks += missing;
-        if missing > 0 && i >= start && end == rows.len() {
+        if i < start || end < rows.len() {
+            continue;
+        }
+        if missing > 0 {
             end = i + 1;
+        } else if restarted(&w[0], &w[1], entries) {
+            end = i + 1;
+            out.restarted_row = Some(end);
         }
     }
     out.unreplayed_rows = rows.len() - end;

@@ -548,40 +548,57 @@ fn a_device_lost_in_the_answer_phase_costs_that_trial_headless() {
     );
 }
 
-/// Issue 13: the same rule in the window: a device lost while the person
-/// is typing the answer aborts and re-queues the trial.
-#[test]
-fn a_device_lost_in_the_answer_phase_costs_that_trial_in_the_window() {
-    use frictionlab::protocol::engine::{Input, Question};
+/// A magnitude-quick session in the window on the device at `dev`, its
+/// results under `dir/results`, advanced every 2 ms (its first screen
+/// continued) until `until(session, when it was continued)` or 20 s.
+/// Returns it and the wall clock it was advanced on.
+fn live_magnitude_quick(
+    dir: &Path,
+    dev: &Path,
+    participant: &str,
+    until: impl Fn(&frictionlab::session::LiveSession, Option<Instant>) -> bool,
+) -> (frictionlab::session::LiveSession, Instant) {
     use frictionlab::session::{DeviceChoice, LiveSession, SessionRequest};
-    let dir = tempfile::tempdir().unwrap();
-    let dev = dir.path().join("dev");
-    let emu = common::emulator(&dev);
     let (protocol, bytes) = magnitude_quick();
-    let results = frictionlab::results::ResultsDir::new(dir.path().join("results"));
+    let results = frictionlab::results::ResultsDir::new(dir.join("results"));
     let req = SessionRequest {
         protocol: &protocol,
         protocol_bytes: &bytes,
-        participant: "typist",
+        participant,
         participant_index: None,
         seed: 3,
         resume: false,
         pace: None,
-        device: &DeviceChoice::Port(dev.clone()),
+        device: &DeviceChoice::Port(dev.to_path_buf()),
         streams: true,
         population: None,
     };
     let mut live = LiveSession::start(&results, &req).unwrap();
     let start = Instant::now();
-    let mut continued = false;
-    while live.view().question != Some(Question::Magnitude) && start.elapsed().as_secs() < 20 {
+    let mut continued = None;
+    while !until(&live, continued) && start.elapsed().as_secs() < 20 {
         live.advance(start.elapsed().as_secs_f64()).unwrap();
-        if !continued && live.view().screen.is_some() {
-            live.input(Input::Continue).unwrap();
-            continued = true;
+        if continued.is_none() && live.view().screen.is_some() {
+            live.input(frictionlab::protocol::engine::Input::Continue)
+                .unwrap();
+            continued = Some(Instant::now());
         }
-        std::thread::sleep(Duration::from_millis(5));
+        std::thread::sleep(Duration::from_millis(2));
     }
+    (live, start)
+}
+
+/// Issue 13: the same rule in the window: a device lost while the person
+/// is typing the answer aborts and re-queues the trial.
+#[test]
+fn a_device_lost_in_the_answer_phase_costs_that_trial_in_the_window() {
+    use frictionlab::protocol::engine::Question;
+    let dir = tempfile::tempdir().unwrap();
+    let dev = dir.path().join("dev");
+    let emu = common::emulator(&dev);
+    let (mut live, start) = live_magnitude_quick(dir.path(), &dev, "typist", |live, _| {
+        live.view().question == Some(Question::Magnitude)
+    });
     assert_eq!(live.view().question, Some(Question::Magnitude));
     unplug(emu, &dev);
     let lost = Instant::now();
@@ -593,4 +610,64 @@ fn a_device_lost_in_the_answer_phase_costs_that_trial_in_the_window() {
     assert!(!live.device_status().connected);
     assert_lost_in_answer_phase(live.log_path());
     live.abort().unwrap();
+}
+
+/// A device that stalls mid-trial (its process stopped for 0.4 s) while the
+/// session is not reading, then answers again: the trial is aborted for the
+/// loss, and its stream ends there. The device's telemetry after it came
+/// back (a new `Hello` started it afresh: nothing rendered, without a
+/// select) belongs to no trial. Before, every tick read in the same poll as
+/// the loss went into the trial being aborted, and its re-render differed
+/// from the recorded force where the device had started afresh (the
+/// fresh-clone CI once saw 3.30 N on QEMU).
+#[test]
+fn a_trial_aborted_for_a_stalled_device_records_nothing_from_after_the_stall() {
+    let dir = tempfile::tempdir().unwrap();
+    let dev = dir.path().join("dev");
+    let emu = common::emulator_with(&dev, &["--on-board"]);
+    // 0.8 s into trial 0's exploration.
+    let (mut live, start) = live_magnitude_quick(dir.path(), &dev, "stall", |_, explored| {
+        explored.is_some_and(|e| e.elapsed() > Duration::from_millis(800))
+    });
+    let signal = |s: &str| {
+        let ok = Command::new("kill")
+            .args([s, &emu.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(ok.success());
+    };
+    // The device stalls; the session reads nothing until it is back.
+    signal("-STOP");
+    std::thread::sleep(Duration::from_millis(400));
+    signal("-CONT");
+    std::thread::sleep(Duration::from_millis(400));
+    live.advance(start.elapsed().as_secs_f64()).unwrap();
+    live.abort().unwrap();
+    unplug(emu, &dev);
+
+    let read = read_log(live.log_path()).unwrap();
+    let r = &read.trials[0];
+    assert_eq!(
+        (r.status, r.requeued, r.abort_reason.as_deref()),
+        (Status::Aborted, true, Some("device lost")),
+        "{:?}",
+        read.trials
+    );
+    let stream = dir.path().join(format!(
+        "results/streams/study-magnitudequick_subject-stall_session-1_trial-{}_run-1_stream.csv",
+        r.trial
+    ));
+    let text = std::fs::read_to_string(&stream).unwrap();
+    let rows = frictionlab::rerender::parse_stream("stream", &text).unwrap();
+    assert!(rows.len() > 2000, "{} rows before the stall", rows.len());
+    for w in rows.windows(2) {
+        assert!(
+            w[1].selected || w[1].render == w[0].render,
+            "the render changed without a select at t = {} s: the device started afresh \
+             after the stall, and its telemetry went into the aborted trial",
+            w[1].t_s
+        );
+    }
+    let report = frictionlab::rerender::rerender_file(&stream).unwrap();
+    assert!(report.bit_exact, "{report:?}");
 }

@@ -218,6 +218,11 @@ fn quick_sessions_run_on_the_firmware_in_qemu_and_rerender_bit_exact_issue_16() 
             "bit-exact: {inexact:#?}, records {statuses:?}"
         );
         assert!(r.rows > 10_000, "{} rows re-rendered", r.rows);
+        // A trial's stream ends where its device was lost: none shows the
+        // device started afresh by the reconnection.
+        for x in &r.reports {
+            assert!(x["restarted_row"].is_null(), "{x}, records {statuses:?}");
+        }
     }
 }
 

@@ -109,6 +109,110 @@ fn a_damaged_stream_or_one_without_its_log_is_refused_with_its_place() {
     }
 }
 
+/// A trial aborted before the device's first tick (a device lost again
+/// right as the trial started) leaves a stream of its header alone and a
+/// record without `rendering`: it re-renders as nothing to replay. A
+/// stream with rows whose record lacks `rendering` is still refused.
+#[test]
+fn a_stream_without_rows_re_renders_as_nothing_to_replay() {
+    let dir = tempfile::tempdir().unwrap();
+    let stream = a_recorded_stream(dir.path());
+    let log = std::fs::read_dir(dir.path().join("logs"))
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    let lines: Vec<String> = std::fs::read_to_string(&log)
+        .unwrap()
+        .lines()
+        .map(|line| {
+            let mut v: serde_json::Value = serde_json::from_str(line).unwrap();
+            if v["type"] == "trial" && v["trial"] == 0 {
+                v.as_object_mut().unwrap().remove("rendering").unwrap();
+            }
+            v.to_string()
+        })
+        .collect();
+    std::fs::write(&log, lines.join("\n") + "\n").unwrap();
+    let o = rerender(&stream);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("trial 0: the record has no 'rendering'"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let text = std::fs::read_to_string(&stream).unwrap();
+    std::fs::write(&stream, format!("{}\n", text.lines().next().unwrap())).unwrap();
+    let o = rerender(&stream);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(
+        (r["rows"].as_u64(), r["bit_exact"].as_bool()),
+        (Some(0), Some(true)),
+        "{r}"
+    );
+}
+
+/// Streams of a [`Board`] rendering on board at 5 kHz, as the host records
+/// them.
+mod on_board {
+    use frictionlab::friction::{Float, Input, ModelParams};
+    use frictionlab::protocol::engine::{RenderEntry, RenderMode};
+    use frictionlab::rerender::Row;
+    use frictionlab_core::onboard::Board;
+    use frictionlab_core::wire::{Message, status};
+
+    pub const RATE_HZ: u16 = 5000;
+
+    /// Tick `k` of `board` on a stroke of 0.03 m at `w` rad/s: its
+    /// telemetry as a stream row. The host knows label 1 as its render 0;
+    /// any other label is render 1.
+    pub fn tick_row(board: &mut Board<f32>, k: u32, w: f64) -> Row {
+        let t = f64::from(k) / f64::from(RATE_HZ);
+        #[expect(clippy::cast_possible_truncation, reason = "the device's f32")]
+        let input = Input {
+            x_m: (0.03 * (w * t).sin()) as f32,
+            v_m_s: (0.03 * w * (w * t).cos()) as f32,
+        };
+        let Some(Message::Telemetry {
+            tick,
+            x_m,
+            v_m_s,
+            force_n,
+            vibration,
+            render,
+            flags,
+        }) = board.tick(input, false, false).telemetry
+        else {
+            panic!("telemetry every tick");
+        };
+        Row {
+            t_s: t,
+            x_m: f64::from(x_m),
+            v_m_s: f64::from(v_m_s),
+            force_n: f64::from(force_n),
+            vibration: f64::from(vibration),
+            render: usize::from(render != 1),
+            selected: flags & status::SELECTED != 0,
+            watchdog: flags & status::WATCHDOG != 0,
+            tick: Some(tick),
+        }
+    }
+
+    /// The record's entry of an on-board render of `model`.
+    pub fn entry(model: Option<ModelParams>) -> RenderEntry {
+        RenderEntry {
+            model,
+            mode: RenderMode::OnBoard,
+            float: Float::F32,
+            rate_hz: f64::from(RATE_HZ),
+            ramp_s: frictionlab_core::render::RAMP_S,
+            force_limit_n: 8.0,
+        }
+    }
+}
+
 /// A device rendering on board keeps stepping its model while its watchdog
 /// holds the output at 0 (the host silent for 20 ms, as a stalled link
 /// under load can be), and re-selects a model the host sends again. Its
@@ -116,21 +220,18 @@ fn a_damaged_stream_or_one_without_its_log_is_refused_with_its_place() {
 /// removed it does not, so the marks are what make the audit exact. With
 /// telemetry lost, the replay is exact up to the loss and stops there.
 #[test]
-#[expect(clippy::too_many_lines, reason = "one stream, damaged four ways")]
 fn an_on_board_stream_with_a_tripped_watchdog_a_resent_model_and_lost_telemetry_re_renders_exactly_up_to_the_loss()
  {
-    use frictionlab::friction::{Float, ForceLimit, Input, ModelParams};
-    use frictionlab::protocol::engine::{RenderEntry, RenderMode};
-    use frictionlab::rerender::{Row, rerender};
+    use frictionlab::friction::{ForceLimit, ModelParams};
+    use frictionlab::rerender::rerender;
     use frictionlab_core::onboard::{Board, upload};
-    use frictionlab_core::wire::{Message, status};
+    use frictionlab_core::wire::Message;
+    use on_board::{RATE_HZ, entry, tick_row};
 
-    const RATE_HZ: u16 = 5000;
     let model = ModelParams::default_for("stick-slip-tactile").unwrap();
     let mut board = Board::<f32>::new(RATE_HZ, ForceLimit::new(8.0).unwrap());
     let send_model = |board: &mut Board<f32>| upload(&model, 1, |m| board.receive(&m));
     send_model(&mut board);
-    let dt = 1.0 / f64::from(RATE_HZ);
     // The host goes silent from 0.60 s to 0.66 s (its heartbeats are 1 ms
     // apart otherwise) and sends the model again at 1.4 s.
     let silent = 3000..3300;
@@ -143,45 +244,9 @@ fn an_on_board_stream_with_a_tripped_watchdog_a_resent_model_and_lost_telemetry_
             send_model(&mut board);
         }
         // A stroke back and forth, peaking at 0.094 m/s.
-        let t = f64::from(k) * dt;
-        let w = std::f64::consts::PI;
-        #[expect(clippy::cast_possible_truncation, reason = "the device's f32")]
-        let input = Input {
-            x_m: (0.03 * (w * t).sin()) as f32,
-            v_m_s: (0.03 * w * (w * t).cos()) as f32,
-        };
-        let Some(Message::Telemetry {
-            tick,
-            x_m,
-            v_m_s,
-            force_n,
-            vibration,
-            flags,
-            ..
-        }) = board.tick(input, false, false).telemetry
-        else {
-            panic!("telemetry every tick");
-        };
-        rows.push(Row {
-            t_s: t,
-            x_m: f64::from(x_m),
-            v_m_s: f64::from(v_m_s),
-            force_n: f64::from(force_n),
-            vibration: f64::from(vibration),
-            render: 0,
-            selected: flags & status::SELECTED != 0,
-            watchdog: flags & status::WATCHDOG != 0,
-            tick: Some(tick),
-        });
+        rows.push(tick_row(&mut board, k, std::f64::consts::PI));
     }
-    let entries = [RenderEntry {
-        model: Some(model.clone()),
-        mode: RenderMode::OnBoard,
-        float: Float::F32,
-        rate_hz: f64::from(RATE_HZ),
-        ramp_s: frictionlab_core::render::RAMP_S,
-        force_limit_n: 8.0,
-    }];
+    let entries = [entry(Some(model.clone()))];
     assert_eq!(
         rows.iter().filter(|r| r.selected).count(),
         2,
@@ -239,4 +304,40 @@ fn an_on_board_stream_with_a_tripped_watchdog_a_resent_model_and_lost_telemetry_
         assert_eq!((lost.missing_ticks, lost.unreplayed_rows), (40, 4960));
         assert!((lost.replayed_s - 0.9998).abs() < 1e-9, "{lost:?}");
     }
+}
+
+/// A device rendering on board that a new connection's `Hello` starts
+/// afresh mid-stream drops its model at once, without a select, under a
+/// render label the host does not know. The replay is exact up to that row
+/// and stops there, rather than crossfade out of the model as a select of
+/// nothing would.
+#[test]
+fn an_on_board_stream_of_a_device_started_afresh_re_renders_exactly_up_to_the_restart() {
+    use frictionlab::friction::{ForceLimit, ModelParams};
+    use frictionlab::rerender::rerender;
+    use frictionlab_core::onboard::{Board, upload};
+    use frictionlab_core::wire::Message;
+    use on_board::{RATE_HZ, entry, tick_row};
+
+    let model = ModelParams::default_for("karnopp").unwrap();
+    let mut board = Board::<f32>::new(RATE_HZ, ForceLimit::new(8.0).unwrap());
+    upload(&model, 1, |m| board.receive(&m));
+    let mut rows = Vec::new();
+    for k in 0..4000_u32 {
+        board.receive(&Message::Heartbeat { seq: k });
+        if k == 2500 {
+            board.reset();
+        }
+        rows.push(tick_row(&mut board, k, 2.0 * std::f64::consts::PI));
+    }
+    let before = rows[2499].force_n;
+    assert!(before.abs() > 0.1, "a force to lose: {before} N");
+    assert_eq!(rows[2500].force_n, 0.0, "nothing rendered afresh");
+    let r = rerender(&rows, &[entry(Some(model)), entry(None)]);
+    assert!(r.bit_exact, "{r:?}");
+    assert_eq!(
+        (r.restarted_row, r.unreplayed_rows, r.missing_ticks),
+        (Some(2500), 1500, 0),
+        "{r:?}"
+    );
 }

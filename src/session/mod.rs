@@ -32,8 +32,10 @@
 //! # One lost-device rule
 //! A device that stops answering at any point of a trial (stimulus,
 //! exploration, answer, Fitts movement: whenever [`Engine::in_trial`]) has
-//! that trial aborted and re-queued at once; every other input waits until
-//! the device answers again. How long to wait is the shell's call
+//! that trial aborted and re-queued at once (before any later tick is
+//! read, so its stream ends at the loss: a device that answers again has
+//! started afresh, which no trial's stream can show); every other input
+//! waits until the device answers again. How long to wait is the shell's call
 //! ([`Session::lost_for_s`]).
 //!
 //! # Pause and abort (the window)
@@ -334,7 +336,11 @@ impl<R: Responder> Session<R> {
         {
             self.t = self.start_t + tick.now_s;
             if tick.link != LinkState::Connected {
+                // The abort takes effect now: ticks read after this one
+                // (the device back, started afresh) are no part of the
+                // trial.
                 self.lost();
+                self.settle()?;
                 continue;
             }
             self.lost_since = None;
