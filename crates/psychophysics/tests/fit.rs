@@ -1,0 +1,593 @@
+//! The maximum-likelihood fit and the bootstrap, on simulated data.
+
+use frictionlab_psychophysics::fit::{
+    Block, Fit, FitSpec, blocks, bootstrap_threshold, fit, log_likelihood,
+};
+use frictionlab_psychophysics::psychometric::{GUESS_2IFC, Params, Psychometric, Shape};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn spec(shape: Shape, max_lapse: f64) -> FitSpec {
+    FitSpec {
+        shape,
+        guess: GUESS_2IFC,
+        max_lapse,
+    }
+}
+
+fn simulate(psi: &Psychometric, xs: &[f64], n: u32, rng: &mut ChaCha8Rng) -> Vec<Block> {
+    xs.iter()
+        .map(|&x| {
+            let p = psi.p_correct(x);
+            let correct = (0..n).map(|_| u32::from(rng.random::<f64>() < p)).sum();
+            Block { x, n, correct }
+        })
+        .collect()
+}
+
+/// A true function and stimulus levels for each shape.
+fn truths() -> Vec<(Psychometric, Vec<f64>)> {
+    vec![
+        (
+            Psychometric {
+                shape: Shape::Weibull,
+                params: Params {
+                    threshold: 0.3,
+                    slope: 3.0,
+                    lapse: 0.02,
+                },
+                guess: GUESS_2IFC,
+            },
+            vec![0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.6, 0.8],
+        ),
+        (
+            Psychometric {
+                shape: Shape::Logistic,
+                params: Params {
+                    threshold: 0.5,
+                    slope: 8.0,
+                    lapse: 0.03,
+                },
+                guess: GUESS_2IFC,
+            },
+            vec![0.0, 0.15, 0.3, 0.45, 0.6, 0.75, 0.9, 1.05],
+        ),
+        (
+            Psychometric {
+                shape: Shape::CumulativeNormal,
+                params: Params {
+                    threshold: -0.2,
+                    slope: 2.5,
+                    lapse: 0.01,
+                },
+                guess: GUESS_2IFC,
+            },
+            vec![-1.2, -0.9, -0.6, -0.3, 0.0, 0.3, 0.6, 0.9],
+        ),
+    ]
+}
+
+#[test]
+fn many_simulated_trials_recover_the_true_parameters() {
+    let mut rng = ChaCha8Rng::seed_from_u64(17);
+    for (truth, xs) in truths() {
+        let data = simulate(&truth, &xs, 3000, &mut rng);
+        let f = fit(&spec(truth.shape, 0.06), &data).unwrap();
+        let (got, want) = (f.params, truth.params);
+        eprintln!("{:?}: fitted {got:?}, true {want:?}", truth.shape);
+        assert!(
+            (got.threshold - want.threshold).abs() < 0.03 * want.threshold.abs().max(0.5),
+            "{:?} threshold {got:?} vs {want:?}",
+            truth.shape
+        );
+        assert!(
+            (got.slope / want.slope - 1.0).abs() < 0.12,
+            "{:?} slope {got:?} vs {want:?}",
+            truth.shape
+        );
+        assert!(
+            (got.lapse - want.lapse).abs() < 0.012,
+            "{:?} lapse {got:?} vs {want:?}",
+            truth.shape
+        );
+        let fitted = Psychometric {
+            params: got,
+            ..truth
+        };
+        let (t, t_true) = (
+            fitted.threshold_at(0.75).unwrap(),
+            truth.threshold_at(0.75).unwrap(),
+        );
+        assert!(
+            (t - t_true).abs() < 0.02 * t_true.abs().max(0.5),
+            "{t} vs {t_true}"
+        );
+    }
+}
+
+#[test]
+fn the_fit_is_at_least_as_likely_as_the_truth_and_as_nearby_parameters() {
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    for (truth, xs) in truths() {
+        for _ in 0..10 {
+            let data = simulate(&truth, &xs, 20, &mut rng);
+            let s = spec(truth.shape, 0.05);
+            let f = fit(&s, &data).unwrap();
+            let at = |p: Params| log_likelihood(&s, &p, &data);
+            let truth_lapse = Params {
+                lapse: truth.params.lapse.min(0.05),
+                ..truth.params
+            };
+            assert!(f.log_likelihood >= at(truth_lapse) - 1e-9);
+            assert_eq!(f.log_likelihood, at(f.params));
+            let p = f.params;
+            for (dt, ds, dl) in [
+                (1e-4, 0.0, 0.0),
+                (-1e-4, 0.0, 0.0),
+                (0.0, 1e-4, 0.0),
+                (0.0, -1e-4, 0.0),
+                (0.0, 0.0, 1e-4),
+                (0.0, 0.0, -1e-4),
+            ] {
+                let q = Params {
+                    threshold: p.threshold * (1.0 + dt),
+                    slope: p.slope * (1.0 + ds),
+                    lapse: p.lapse + dl,
+                };
+                // Outside the box (fit.rs's module docs) the likelihood is
+                // no competitor.
+                let w = |x: f64| match truth.shape {
+                    Shape::Weibull => x.ln(),
+                    Shape::Logistic | Shape::CumulativeNormal => x,
+                };
+                let (w_min, w_max) = (w(xs[0]), w(xs[xs.len() - 1]));
+                let span = w_max - w_min;
+                let inside = (0.0..=0.05).contains(&q.lapse)
+                    && (0.01 / span..=100.0 / span).contains(&q.slope)
+                    && (w_min - span..=w_max + span).contains(&w(q.threshold));
+                if inside {
+                    assert!(f.log_likelihood >= at(q) - 1e-12, "{p:?} beaten by {q:?}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn the_lapse_rate_stays_within_its_bound_and_may_sit_on_it_exactly() {
+    // Errors at the top levels ask for a lapse rate near 0.15.
+    let data: Vec<Block> = [
+        (0.1, 20),
+        (0.2, 24),
+        (0.4, 30),
+        (0.8, 34),
+        (1.6, 34),
+        (3.2, 34),
+    ]
+    .into_iter()
+    .map(|(x, correct)| Block { x, n: 40, correct })
+    .collect();
+    for shape in [Shape::Weibull, Shape::Logistic, Shape::CumulativeNormal] {
+        let wide = fit(&spec(shape, 0.3), &data).unwrap();
+        assert!(
+            wide.params.lapse > 0.1 && wide.params.lapse < 0.2,
+            "{wide:?}"
+        );
+        let capped = fit(&spec(shape, 0.05), &data).unwrap();
+        assert_eq!(capped.params.lapse, 0.05, "{shape:?}");
+        let none = fit(&spec(shape, 0.0), &data).unwrap();
+        assert_eq!(none.params.lapse, 0.0, "{shape:?}");
+        assert!(wide.log_likelihood > capped.log_likelihood);
+        assert!(capped.log_likelihood > none.log_likelihood);
+    }
+    // All correct at the top: the lapse rate goes to 0, exactly.
+    let clean: Vec<Block> = [(0.1, 21), (0.2, 25), (0.4, 33), (0.8, 40), (1.6, 40)]
+        .into_iter()
+        .map(|(x, correct)| Block { x, n: 40, correct })
+        .collect();
+    assert_eq!(
+        fit(&spec(Shape::Weibull, 0.05), &clean)
+            .unwrap()
+            .params
+            .lapse,
+        0.0
+    );
+    // And on many small random data sets it never leaves [0, max_lapse].
+    let mut rng = ChaCha8Rng::seed_from_u64(99);
+    for (truth, xs) in truths() {
+        for _ in 0..50 {
+            let data = simulate(&truth, &xs, 5, &mut rng);
+            let f = fit(&spec(truth.shape, 0.04), &data).unwrap();
+            assert!((0.0..=0.04).contains(&f.params.lapse), "{f:?}");
+        }
+    }
+}
+
+#[test]
+fn perfectly_separated_data_give_a_finite_fit_with_the_slope_at_its_bound() {
+    // Chance up to x = 3, all correct from x = 4.
+    let data: Vec<Block> = [
+        (1.0, 10),
+        (2.0, 9),
+        (3.0, 10),
+        (4.0, 20),
+        (5.0, 20),
+        (6.0, 20),
+    ]
+    .into_iter()
+    .map(|(x, correct)| Block { x, n: 20, correct })
+    .collect();
+    for shape in [Shape::Logistic, Shape::CumulativeNormal] {
+        let f = fit(&spec(shape, 0.04), &data).unwrap();
+        // Span 5: the slope bound is 100 / 5.
+        assert_eq!(f.params.slope, 20.0, "{shape:?} {f:?}");
+        assert!(
+            f.params.threshold > 3.0 && f.params.threshold < 4.0,
+            "{f:?}"
+        );
+        assert_eq!(f.params.lapse, 0.0);
+        assert!(f.log_likelihood.is_finite());
+    }
+    // The Weibull's span is ln(6 / 1).
+    let f = fit(&spec(Shape::Weibull, 0.04), &data).unwrap();
+    assert_eq!(f.params.slope, 100.0 / 6.0_f64.ln(), "{f:?}");
+    assert!(
+        f.params.threshold > 3.0 && f.params.threshold < 4.5,
+        "{f:?}"
+    );
+    // Two levels, 0 % above chance and 100 %: the same.
+    let two = [
+        Block {
+            x: 1.0,
+            n: 3,
+            correct: 1,
+        },
+        Block {
+            x: 2.0,
+            n: 3,
+            correct: 3,
+        },
+    ];
+    let f = fit(&spec(Shape::Logistic, 0.0), &two).unwrap();
+    assert_eq!(f.params.slope, 100.0, "{f:?}");
+    assert!(
+        f.params.threshold > 1.0 && f.params.threshold < 2.0,
+        "{f:?}"
+    );
+}
+
+fn block(x: f64, n: u32, correct: u32) -> Block {
+    Block { x, n, correct }
+}
+
+const SHAPES: [Shape; 3] = [Shape::Weibull, Shape::Logistic, Shape::CumulativeNormal];
+
+#[test]
+fn no_data_or_invalid_data_give_none_without_panicking() {
+    let ok = block(1.0, 10, 7);
+    let params = Params {
+        threshold: 1.0,
+        slope: 2.0,
+        lapse: 0.0,
+    };
+    for shape in SHAPES {
+        let s = spec(shape, 0.05);
+        assert_eq!(fit(&s, &[]), None);
+        assert_eq!(fit(&s, &[block(1.0, 0, 0)]), None, "no trials");
+        for x in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            let bad = [ok, block(x, 4, 2)];
+            assert_eq!(fit(&s, &bad), None, "{x} {shape:?}");
+            assert!(log_likelihood(&s, &params, &bad).is_nan());
+        }
+        assert_eq!(
+            fit(&s, &[block(1.0, 3, 4)]),
+            None,
+            "more correct than trials"
+        );
+        for (guess, max_lapse) in [
+            (1.0, 0.0),
+            (-0.1, 0.0),
+            (f64::NAN, 0.0),
+            (0.5, -0.01),
+            (0.5, 0.5),
+            (0.5, f64::NAN),
+        ] {
+            let bad_spec = FitSpec {
+                shape,
+                guess,
+                max_lapse,
+            };
+            assert_eq!(fit(&bad_spec, &[ok]), None, "{guess} {max_lapse}");
+        }
+        // Data spanning nearly all of f64 leave no box to search.
+        let huge = [block(-f64::MAX, 1, 1), block(f64::MAX, 1, 1)];
+        if shape != Shape::Weibull {
+            assert_eq!(fit(&s, &huge), None, "{shape:?}");
+        }
+    }
+}
+
+#[test]
+fn odd_but_valid_data_give_a_finite_fit_within_the_bounds() {
+    for data in [
+        vec![block(1.0, 10, 7)],
+        vec![block(0.0, 5, 5)],
+        vec![block(-3.0, 5, 0)],
+        vec![block(0.0, 5, 5), block(0.0, 0, 0), block(-1.0, 2, 1)],
+        vec![block(1e-300, 2, 1), block(1e300, u32::MAX, u32::MAX)],
+        vec![block(f64::MIN_POSITIVE / 4.0, 1, 0), block(2.0, 1, 1)],
+        vec![block(-1.0, 1000, 500), block(1.0, 1000, 500)],
+    ] {
+        for shape in SHAPES {
+            let f = fit(&spec(shape, 0.05), &data)
+                .unwrap_or_else(|| panic!("{shape:?} {data:?}: no fit"));
+            assert!(f.log_likelihood.is_finite(), "{shape:?} {data:?} {f:?}");
+            assert!((0.0..=0.05).contains(&f.params.lapse), "{f:?}");
+            assert!(f.params.slope > 0.0 && f.params.slope.is_finite(), "{f:?}");
+            assert!(f.params.threshold.is_finite(), "{f:?}");
+        }
+    }
+}
+
+#[test]
+fn a_fit_is_deterministic_to_the_bit() {
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    for (truth, xs) in truths() {
+        let data = simulate(&truth, &xs, 15, &mut rng);
+        let s = spec(truth.shape, 0.05);
+        let bits = |f: Fit| {
+            [
+                f.params.threshold.to_bits(),
+                f.params.slope.to_bits(),
+                f.params.lapse.to_bits(),
+                f.log_likelihood.to_bits(),
+            ]
+        };
+        let first = bits(fit(&s, &data).unwrap());
+        for _ in 0..3 {
+            assert_eq!(bits(fit(&s, &data).unwrap()), first);
+        }
+    }
+}
+
+#[test]
+fn blocks_group_trials_by_equal_x_sorted() {
+    let trials = [
+        (0.3, true),
+        (0.1, false),
+        (0.3, false),
+        (0.2, true),
+        (0.1, true),
+        (0.3, true),
+    ];
+    assert_eq!(
+        blocks(&trials),
+        vec![
+            Block {
+                x: 0.1,
+                n: 2,
+                correct: 1
+            },
+            Block {
+                x: 0.2,
+                n: 1,
+                correct: 1
+            },
+            Block {
+                x: 0.3,
+                n: 3,
+                correct: 2
+            },
+        ]
+    );
+    assert!(blocks(&[]).is_empty());
+    // A NaN level makes a block of its own, which the fit then rejects.
+    let with_nan = blocks(&[(f64::NAN, true), (1.0, true), (f64::NAN, false)]);
+    assert_eq!(with_nan.len(), 3);
+    assert_eq!(fit(&spec(Shape::Logistic, 0.0), &with_nan), None);
+}
+
+#[test]
+fn log_likelihood_is_the_binomial_sum_over_trials_without_coefficients() {
+    let psi = Psychometric {
+        shape: Shape::Weibull,
+        params: Params {
+            threshold: 0.4,
+            slope: 2.0,
+            lapse: 0.03,
+        },
+        guess: GUESS_2IFC,
+    };
+    let data = [
+        Block {
+            x: 0.0,
+            n: 4,
+            correct: 3,
+        },
+        Block {
+            x: 0.2,
+            n: 10,
+            correct: 6,
+        },
+        Block {
+            x: 0.8,
+            n: 7,
+            correct: 7,
+        },
+    ];
+    let want: f64 = data
+        .iter()
+        .map(|b| {
+            let p = psi.p_correct(b.x);
+            f64::from(b.correct) * p.ln() + f64::from(b.n - b.correct) * (1.0 - p).ln()
+        })
+        .sum();
+    let got = log_likelihood(&spec(Shape::Weibull, 0.05), &psi.params, &data);
+    assert!((got - want).abs() < 1e-12, "{got} {want}");
+    // An error where psi = 1 is impossible.
+    let certain = Params {
+        threshold: 0.0,
+        slope: 1e6,
+        lapse: 0.0,
+    };
+    let wrong_at_top = [Block {
+        x: 5.0,
+        n: 2,
+        correct: 1,
+    }];
+    assert_eq!(
+        log_likelihood(&spec(Shape::Logistic, 0.0), &certain, &wrong_at_top),
+        f64::NEG_INFINITY
+    );
+}
+
+/// Coverage of the bootstrap's 95 % interval over repeated experiments.
+#[test]
+fn the_bootstrap_95_percent_interval_covers_the_true_threshold_about_95_percent_of_the_time() {
+    let truth = Psychometric {
+        shape: Shape::Logistic,
+        params: Params {
+            threshold: 0.5,
+            slope: 10.0,
+            lapse: 0.02,
+        },
+        guess: GUESS_2IFC,
+    };
+    let xs = [0.2, 0.35, 0.5, 0.65, 0.8, 0.95];
+    let s = spec(Shape::Logistic, 0.05);
+    let t_true = truth.threshold_at(0.75).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(2024);
+    let (repetitions, mut covered, mut failed) = (200, 0, 0);
+    for _ in 0..repetitions {
+        let data = simulate(&truth, &xs, 40, &mut rng);
+        let f = fit(&s, &data).unwrap();
+        let b = bootstrap_threshold(&s, &f, &data, 0.75, 200, 0.95, &mut rng).unwrap();
+        assert_eq!(b.samples, 200);
+        assert!(b.interval.lo <= b.interval.hi && b.sd > 0.0);
+        failed += b.failed;
+        if b.interval.lo <= t_true && t_true <= b.interval.hi {
+            covered += 1;
+        }
+    }
+    let coverage = f64::from(covered) / f64::from(repetitions);
+    eprintln!("coverage {covered}/{repetitions} = {coverage}, failed bootstrap samples {failed}");
+    assert!((0.88..=0.99).contains(&coverage), "coverage {coverage}");
+}
+
+#[test]
+fn the_bootstrap_is_reproducible_from_its_seed_and_counts_failed_samples() {
+    let s = spec(Shape::Weibull, 0.05);
+    let data = [
+        Block {
+            x: 0.1,
+            n: 8,
+            correct: 4,
+        },
+        Block {
+            x: 0.2,
+            n: 8,
+            correct: 5,
+        },
+        Block {
+            x: 0.4,
+            n: 8,
+            correct: 7,
+        },
+        Block {
+            x: 0.8,
+            n: 8,
+            correct: 8,
+        },
+    ];
+    let f = fit(&s, &data).unwrap();
+    let run = |seed| {
+        bootstrap_threshold(
+            &s,
+            &f,
+            &data,
+            0.75,
+            100,
+            0.9,
+            &mut ChaCha8Rng::seed_from_u64(seed),
+        )
+        .unwrap()
+    };
+    assert_eq!(run(1), run(1));
+    assert_ne!(run(1), run(2));
+    // A criterion above 1 - max_lapse but reachable by some refits (lapse
+    // 0): the others fail and are counted.
+    let high = bootstrap_threshold(
+        &s,
+        &f,
+        &data,
+        0.97,
+        100,
+        0.9,
+        &mut ChaCha8Rng::seed_from_u64(1),
+    )
+    .unwrap();
+    assert!(high.failed > 0 && high.failed < 100, "{high:?}");
+    // A criterion no function reaches: every sample fails.
+    assert_eq!(
+        bootstrap_threshold(
+            &s,
+            &f,
+            &data,
+            0.4,
+            50,
+            0.9,
+            &mut ChaCha8Rng::seed_from_u64(1)
+        ),
+        None
+    );
+    for confidence in [0.0, 1.0, f64::NAN] {
+        assert_eq!(
+            bootstrap_threshold(
+                &s,
+                &f,
+                &data,
+                0.75,
+                50,
+                confidence,
+                &mut ChaCha8Rng::seed_from_u64(1)
+            ),
+            None
+        );
+    }
+}
+
+/// Time per fit; run in release: `cargo test -p frictionlab-psychophysics
+/// --release --test fit -- --ignored --nocapture`.
+#[test]
+#[ignore = "a measurement, for release builds"]
+fn time_per_fit() {
+    let mut rng = ChaCha8Rng::seed_from_u64(8);
+    for (truth, _) in truths() {
+        for (levels, trials) in [(10_usize, 20), (20, 10), (40, 3)] {
+            let (lo, hi) = match truth.shape {
+                Shape::Weibull => (0.05_f64, 0.8_f64),
+                Shape::Logistic => (0.0, 1.05),
+                Shape::CumulativeNormal => (-1.2, 0.9),
+            };
+            let xs: Vec<f64> = (0..levels)
+                .map(|i| lo + (hi - lo) * i as f64 / (levels - 1) as f64)
+                .collect();
+            let sets: Vec<Vec<Block>> = (0..1000)
+                .map(|_| simulate(&truth, &xs, trials, &mut rng))
+                .collect();
+            let s = spec(truth.shape, 0.05);
+            let start = std::time::Instant::now();
+            let mut sum = 0.0;
+            for d in &sets {
+                sum += fit(&s, d).unwrap().params.threshold;
+            }
+            let per = start.elapsed().as_secs_f64() / sets.len() as f64;
+            eprintln!(
+                "{:?}, {levels} blocks of {trials} trials: {:.1} us per fit (mean threshold {:.3})",
+                truth.shape,
+                per * 1e6,
+                sum / sets.len() as f64
+            );
+        }
+    }
+}
