@@ -596,9 +596,15 @@ fn unusable_input_exits_2_with_place_and_reason() {
             "magnitude: -2 is not greater than 0",
         ),
         (
-            "unknown kind",
+            // The kind is the rows' `kind` cell; its columns must be there.
+            "a kind's column renamed",
             Box::new(|t: &mut String| *t = t.replace("display", "screen")),
-            "cannot tell the kind",
+            "1:1: missing column 'display'",
+        ),
+        (
+            "unknown kind",
+            Box::new(|t: &mut String| *t = t.replace(",magnitude_estimation,", ",tapping,")),
+            "2:1: no analysis for the kind of session 'tapping'",
         ),
     ];
     for (name, edit, message) in cases {

@@ -15,6 +15,7 @@
 //! `line:column` when known) or folder.
 
 pub mod claims;
+pub mod discrimination;
 pub mod fitts;
 pub mod magnitude;
 pub mod paired;
@@ -413,14 +414,34 @@ pub fn load(dir: &Path) -> Result<BTreeMap<&'static str, Rows>, Problem> {
     let mut by_kind: BTreeMap<&'static str, Group> = BTreeMap::new();
     for file in &files {
         let name = file.display().to_string();
-        let header = std::fs::read_to_string(file)
-            .map_err(|e| Problem::new(&name, format!("cannot read: {e}")))?
-            .lines()
+        let text = std::fs::read_to_string(file)
+            .map_err(|e| Problem::new(&name, format!("cannot read: {e}")))?;
+        let mut lines = text.lines();
+        let header = lines
             .next()
             .map(|l| l.split(',').map(str::to_owned).collect::<Vec<_>>())
             .unwrap_or_default();
         let has = |c: &str| header.iter().any(|h| h == c);
-        let Some(&(kind, entry)) = analysed.iter().find(|(_, a)| has(a.marker)) else {
+        // The kind: the first row's `kind` cell (ids and kind names hold no
+        // commas); in a file without rows, the first kind whose marker
+        // column it has.
+        let named = header
+            .iter()
+            .position(|h| h == "kind")
+            .and_then(|i| lines.next()?.split(',').nth(i));
+        let found = match named {
+            Some(k) => {
+                let Some(found) = analysed.iter().find(|(kind, _)| kind.as_str() == k) else {
+                    return Err(Problem::new(
+                        format!("{name}: 2:1"),
+                        format!("no analysis for the kind of session '{k}'"),
+                    ));
+                };
+                Some(found)
+            }
+            None => analysed.iter().find(|(_, a)| has(a.marker)),
+        };
+        let Some(&(kind, entry)) = found else {
             let markers: Vec<&str> = analysed.iter().map(|(_, a)| a.marker).collect();
             return Err(Problem::new(
                 format!("{name}: 1:1"),
