@@ -102,7 +102,7 @@ fn participant_step(h: &mut Harness<'_, FrictionlabApp>, magnitude: &str) -> boo
             type_into(h, "Your number", magnitude);
             click(h, "Submit");
         }
-        Some(Screen::Paired { active, .. }) => {
+        Some(Screen::Paired { active, forced, .. }) => {
             if active == 0 {
                 click(h, "Feel stimulus 2");
                 assert!(matches!(
@@ -110,7 +110,16 @@ fn participant_step(h: &mut Harness<'_, FrictionlabApp>, magnitude: &str) -> boo
                     Some(Screen::Paired { active: 1, .. })
                 ));
             }
-            click(h, "Stimulus 2 is nearer");
+            // A forced choice (discrimination) asks its own question, with
+            // no "no difference".
+            click(
+                h,
+                if forced.is_some() {
+                    "Stimulus 2"
+                } else {
+                    "Stimulus 2 is nearer"
+                },
+            );
         }
         Some(Screen::Fitts { lit_m, .. }) => fitts_tap(h, lit_m),
         None => h.step(),
@@ -268,6 +277,34 @@ fn a_paired_comparison_session_switches_stimuli_takes_the_answer_and_finishes() 
     assert_eq!(read.trials.len(), 1);
     let rows = csv_rows(l.csv());
     assert_eq!(column(&rows, "choice"), ["second"]);
+}
+
+/// Issue 17: a discrimination session by clicks: the two stimuli, the
+/// protocol's question answered "stimulus 2" on every trial, to the end;
+/// every track stops after its 8 trials, and the experimenter's window
+/// has the tracks to plot.
+#[test]
+fn a_discrimination_session_is_answered_by_clicks_to_the_end_issue_17() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(dir.path(), "p17", None);
+    choose_protocol(&mut h, "discrimination-quick.json");
+    start(&mut h);
+    run_to_end(&mut h, "1", 200);
+    let l = live(&h);
+    assert_eq!(l.phase(), Phase::Finished);
+    let rows = csv_rows(l.csv());
+    assert_eq!(column(&rows, "choice"), vec!["second"; 24]);
+    let tracks = frictionlab::kinds::discrimination::tracks(l.engine().history());
+    assert_eq!(
+        tracks.iter().map(|t| t.answers.len()).collect::<Vec<_>>(),
+        [8, 8, 8]
+    );
+    // Choosing the second is right when the comparison came second.
+    let second: Vec<String> = column(&rows, "second");
+    let correct: Vec<String> = column(&rows, "correct");
+    for (s, c) in second.iter().zip(&correct) {
+        assert_eq!(c, if s == "comparison" { "1" } else { "0" });
+    }
 }
 
 #[test]

@@ -280,6 +280,7 @@ fn order(p: &Protocol, seed: u64, participant: u32) -> Vec<String> {
             TrialSpec::MagnitudeEstimation(m) => format!("{}:{}:{}", m.display, m.mu_s, m.mu_k),
             TrialSpec::Fitts(f) => format!("{}:{}:{}", f.condition, f.amplitude_m, f.width_m),
             TrialSpec::PairedComparison(p) => format!("{}>{}", p.first.id, p.second.id),
+            TrialSpec::Discrimination(d) => format!("{}:{}", d.track, d.difference),
         })
         .collect()
 }
@@ -405,11 +406,15 @@ proptest! {
 
     #[test]
     fn the_loader_never_panics_and_accepted_files_round_trip(
-        which in 0_usize..6,
+        which in 0_usize..8,
         path in proptest::collection::vec(0_usize..40, 0..6),
         replacement in any_json(),
     ) {
-        let (text, _) = shipped(SHIPPED[which]);
+        let name = SHIPPED
+            .get(which)
+            .copied()
+            .unwrap_or_else(|| ["discrimination", "discrimination-quick"][which - SHIPPED.len()]);
+        let (text, _) = shipped(name);
         let mut v: Value = serde_json::from_str(&text).unwrap();
         mutate(&mut v, &path, &replacement);
         if let Ok(p) = parse(&v.to_string()) {

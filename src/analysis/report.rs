@@ -9,6 +9,7 @@ use plotters::prelude::*;
 use serde_json::Value;
 
 use super::Table;
+use super::discrimination::Discrimination;
 use super::fitts::Fitts;
 use super::magnitude::Magnitude;
 use super::paired::Paired;
@@ -359,6 +360,181 @@ pub fn fitts_section(f: &Fitts) -> String {
     ));
     s.push_str("</div>");
     for t in f.tables.iter().skip(1).chain(f.tables.first()) {
+        s.push_str(&table_html(t));
+    }
+    s
+}
+
+/// Points (`scatter`, markers) and lines (`curves`) on shared axes; the
+/// `i`th of each in palette colour `i`.
+fn scatter_curves(
+    title: &str,
+    labels: (&str, &str),
+    scatter: &[(String, Vec<(f64, f64)>)],
+    curves: &[(String, Vec<(f64, f64)>)],
+) -> String {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (460, 320)).into_drawing_area();
+        let _ = root.fill(&WHITE);
+        let all = || scatter.iter().chain(curves).flat_map(|s| s.1.iter());
+        let xs = range(all().map(|p| p.0), false);
+        let ys = range(all().map(|p| p.1), true);
+        let Ok(mut chart) = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 15))
+            .margin(8)
+            .x_label_area_size(34)
+            .y_label_area_size(52)
+            .build_cartesian_2d(xs, ys)
+        else {
+            return svg_fallback(title);
+        };
+        let _ = chart
+            .configure_mesh()
+            .x_desc(labels.0)
+            .y_desc(labels.1)
+            .light_line_style(WHITE)
+            .draw();
+        for (i, (name, pts)) in curves.iter().enumerate() {
+            let color = Palette99::pick(i).to_rgba();
+            if let Ok(s) =
+                chart.draw_series(LineSeries::new(pts.iter().copied(), color.stroke_width(2)))
+                && !name.is_empty()
+            {
+                s.label(name.clone()).legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2))
+                });
+            }
+        }
+        for (i, (name, pts)) in scatter.iter().enumerate() {
+            let color = Palette99::pick(i).to_rgba();
+            if let Ok(s) = chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, color.filled())))
+                && !name.is_empty()
+                && curves.get(i).is_none_or(|c| c.0.is_empty())
+            {
+                s.label(name.clone())
+                    .legend(move |(x, y)| Circle::new((x + 8, y), 3, color.filled()));
+            }
+        }
+        let _ = chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .border_style(BLACK)
+            .background_style(WHITE.mix(0.85))
+            .draw();
+        let _ = root.present();
+    }
+    svg
+}
+
+/// A track's fitted function over its differences, 61 points.
+fn fitted_curve(d: &Discrimination, t: &super::discrimination::TrackFit) -> Vec<(f64, f64)> {
+    let (lo, hi) = t.blocks.iter().fold((f64::INFINITY, 0.0_f64), |(a, b), k| {
+        (a.min(k.x), b.max(k.x))
+    });
+    t.fit.map_or_else(Vec::new, |f| {
+        let psi = frictionlab_psychophysics::psychometric::Psychometric {
+            shape: d.design.fit.shape,
+            params: f.params,
+            guess: frictionlab_psychophysics::psychometric::GUESS_2IFC,
+        };
+        (0..=60)
+            .map(|k| {
+                let x = lo + (hi - lo) * f64::from(k) / 60.0;
+                (x, psi.p_correct(x))
+            })
+            .collect()
+    })
+}
+
+/// Tracks shown in the track and fit figures (the first participants').
+const TRACKS_SHOWN: usize = 6;
+
+/// The discrimination section: each track's differences, the fitted
+/// functions over the binned answers, and the Weber fraction against the
+/// reference level.
+#[must_use]
+pub fn discrimination_section(d: &Discrimination) -> String {
+    let mut s = format!(
+        "<h2>Discrimination of {}</h2><p>Threshold at {}% correct (two intervals, guess rate 0.5, lapse rate fitted within [0, {}]), {} fits, 95% parametric-bootstrap intervals ({} samples).</p><div class=\"figs\">",
+        esc(&d.design.parameter),
+        fmt(d.design.criterion * 100.0),
+        fmt(d.design.fit.max_lapse),
+        d.tracks.len(),
+        d.design.fit.bootstrap,
+    );
+    let shown: Vec<_> = d.tracks.iter().take(TRACKS_SHOWN).collect();
+    let name =
+        |t: &super::discrimination::TrackFit| format!("{} @ {}", t.participant, fmt(t.level));
+    #[expect(clippy::cast_precision_loss, reason = "trial numbers")]
+    let tracks: Vec<(String, Vec<(f64, f64)>)> = shown
+        .iter()
+        .map(|t| {
+            (
+                name(t),
+                t.answers
+                    .iter()
+                    .enumerate()
+                    .map(|(i, a)| ((i + 1) as f64, a.0))
+                    .collect(),
+            )
+        })
+        .collect();
+    s.push_str(&line_chart(
+        "Each track's difference, trial by trial",
+        "trial of the track",
+        "difference",
+        &tracks,
+        &[],
+    ));
+    let binned: Vec<(String, Vec<(f64, f64)>)> = shown
+        .iter()
+        .map(|t| {
+            (
+                String::new(),
+                t.blocks
+                    .iter()
+                    .map(|b| (b.x, f64::from(b.correct) / f64::from(b.n.max(1))))
+                    .collect(),
+            )
+        })
+        .collect();
+    let curves: Vec<(String, Vec<(f64, f64)>)> = shown
+        .iter()
+        .map(|t| (name(t), fitted_curve(d, t)))
+        .collect();
+    s.push_str(&scatter_curves(
+        "Fitted functions over the answers at each difference",
+        ("difference", "proportion correct"),
+        &binned,
+        &curves,
+    ));
+    let participants: Vec<(String, Vec<(f64, f64)>)> = vec![(
+        "each participant".into(),
+        d.tracks
+            .iter()
+            .filter_map(|t| t.weber.map(|w| (t.level, w)))
+            .collect(),
+    )];
+    let means: Vec<(String, Vec<(f64, f64)>)> = vec![(
+        "mean".into(),
+        d.summary["levels"]
+            .as_array()
+            .map(|ls| {
+                ls.iter()
+                    .filter_map(|l| Some((l["level"].as_f64()?, l["weber_mean"].as_f64()?)))
+                    .collect()
+            })
+            .unwrap_or_default(),
+    )];
+    s.push_str(&scatter_curves(
+        "Weber fraction against the reference level",
+        ("reference level", "Weber fraction"),
+        &participants,
+        &means,
+    ));
+    s.push_str("</div>");
+    for t in &d.tables {
         s.push_str(&table_html(t));
     }
     s

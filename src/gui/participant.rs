@@ -16,6 +16,10 @@ const RANGE_HALF_M: f64 = 0.016;
 
 /// Draws the participant's screen and collects what they do. `canvas` gets
 /// the workspace strip's rectangle (where the pointer drives the hand).
+#[expect(
+    clippy::too_many_lines,
+    reason = "one match over the participant's screens reads best in one place"
+)]
 pub(crate) fn show(
     ui: &mut egui::Ui,
     live: &LiveSession,
@@ -73,8 +77,19 @@ pub(crate) fn show(
             countdown(ui, "Exploration", *until_s - now);
             magnitude_entry(ui, answer, view.question.is_some(), commands);
         }
-        Some(Screen::Paired { active, until_s }) => {
-            paired(ui, *active, *until_s - now, view.question, commands);
+        Some(Screen::Paired {
+            active,
+            until_s,
+            forced,
+        }) => {
+            paired(
+                ui,
+                *active,
+                *until_s - now,
+                view.question,
+                forced.as_deref(),
+                commands,
+            );
         }
         Some(Screen::Fitts {
             lit_m,
@@ -175,11 +190,14 @@ fn magnitude_entry(
     });
 }
 
+/// The two stimuli and the answers: the paired comparison's nearness, or
+/// a forced choice's question (`forced`) answered stimulus 1 or 2.
 fn paired(
     ui: &mut egui::Ui,
     active: usize,
     left_s: f64,
     question: Option<Question>,
+    forced: Option<&str>,
     commands: &mut Vec<Command>,
 ) {
     big(ui, &format!("Stimulus {} is active.", active + 1));
@@ -197,6 +215,25 @@ fn paired(
         countdown(ui, "Exploration", left_s);
     }
     ui.add_space(12.0);
+    if let Some(ask) = forced {
+        let ask = if question.is_some() {
+            ask.to_owned()
+        } else {
+            format!("Answer when you are sure: {ask}")
+        };
+        ui.label(RichText::new(ask).size(22.0));
+        ui.horizontal(|ui| {
+            for (text, choice) in [
+                ("Stimulus 1", Choice::First),
+                ("Stimulus 2", Choice::Second),
+            ] {
+                if ui.button(RichText::new(text).size(24.0)).clicked() {
+                    commands.push(Command::Paired(choice));
+                }
+            }
+        });
+        return;
+    }
     let ask = if question.is_some() {
         "Which felt nearer to the real surface?"
     } else {

@@ -2,7 +2,7 @@
 //! envelope over the last seconds of [`LiveSession::trace`].
 
 use eframe::egui;
-use egui_plot::{Legend, Line, Plot, PlotPoints};
+use egui_plot::{Legend, Line, Plot, PlotPoints, Points};
 
 use crate::session::LiveSession;
 
@@ -39,5 +39,49 @@ pub(super) fn show(ui: &mut egui::Ui, live: &LiveSession) {
                 "vibrotactile envelope (0..1)",
                 PlotPoints::from(vibration),
             ));
+        });
+}
+
+/// A discrimination session's adaptive tracks: each reference level's
+/// difference, trial by trial, the answers marked (filled: correct).
+/// Nothing for other kinds, or before the first answer.
+pub(super) fn tracks(ui: &mut egui::Ui, live: &LiveSession) {
+    let tracks = crate::kinds::discrimination::tracks(live.engine().history());
+    if tracks.is_empty() {
+        return;
+    }
+    Plot::new("tracks")
+        .height(170.0)
+        .legend(Legend::default())
+        .x_axis_label("trial of the track")
+        .y_axis_label("difference")
+        .allow_drag(false)
+        .allow_zoom(false)
+        .allow_scroll(false)
+        .show(ui, |plot| {
+            for t in &tracks {
+                #[expect(clippy::cast_precision_loss, reason = "trial numbers")]
+                let at = |i: usize, x: f64| [(i + 1) as f64, x];
+                let line: Vec<[f64; 2]> = t
+                    .answers
+                    .iter()
+                    .enumerate()
+                    .map(|(i, a)| at(i, a.0))
+                    .collect();
+                let correct: Vec<[f64; 2]> = t
+                    .answers
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, a)| a.1)
+                    .map(|(i, a)| at(i, a.0))
+                    .collect();
+                let name = format!("level {}", t.level);
+                plot.line(Line::new(name.clone(), PlotPoints::from(line)));
+                plot.points(
+                    Points::new(name, PlotPoints::from(correct))
+                        .radius(3.0)
+                        .filled(true),
+                );
+            }
         });
 }

@@ -127,6 +127,7 @@ impl SessionPanel {
                 RichText::new(format!("{} note(s) saved to the log", self.notes_saved)).weak(),
             );
         }
+        plot::tracks(ui, live);
         plot::show(ui, live);
         commands
     }

@@ -238,6 +238,10 @@ macro_rules! kinds {
         /// The design of one of the kinds of study.
         #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
         #[serde(tag = "kind")]
+        #[allow(
+            clippy::large_enum_variant,
+            reason = "one design per protocol, read once; boxing would change every match on it"
+        )]
         pub enum Design {
             $(
                 $(#[doc = $doc])*
@@ -480,6 +484,9 @@ kinds! {
     MagnitudeEstimation("magnitude_estimation") => magnitude::Magnitude,
     /// Seed 002: reciprocal tapping under friction conditions.
     Fitts("fitts") => fitts::Fitts,
+    /// Issue 17: the smallest felt difference of a model parameter, by an
+    /// adaptive two-interval forced choice.
+    Discrimination("discrimination") => discrimination::Discrimination,
     /// Issue 13's toy kind, for tests only: a 1-up-1-down staircase.
     #[cfg(test)]
     Staircase("toy_staircase") => staircase::Staircase,

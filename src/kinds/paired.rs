@@ -189,18 +189,7 @@ impl StudyKind for Paired {
     /// Renders the first stimulus and shows the comparison screen until
     /// `now + 2 exploration_s`.
     fn start(trial: &PairedTrial, now: f64, out: &mut VecDeque<Action>) -> Compare {
-        let PairedTrial { first, second, .. } = trial;
-        let until = now + 2.0 * trial.exploration_s;
-        out.push_back(Action::Render(Some(first.model.clone())));
-        out.push_back(Action::Show(Screen::Paired {
-            active: 0,
-            until_s: until,
-        }));
-        Compare {
-            conditions: [first.clone(), second.clone()],
-            time: Exploration::until(until),
-            choice: None,
-        }
+        Compare::start(trial, None, now, out)
     }
 
     fn row(d: &PairedData) -> Vec<String> {
@@ -220,6 +209,35 @@ pub struct Compare {
     conditions: [Condition; 2],
     time: Exploration,
     choice: Option<Choice>,
+    /// A forced choice's question (no "no difference"), or `None`.
+    forced: Option<String>,
+}
+
+impl Compare {
+    /// Renders the first stimulus and shows the two stimuli until `now + 2
+    /// exploration_s`; `forced`: a two-interval forced choice asking this
+    /// question, else the paired comparison's.
+    pub fn start(
+        trial: &PairedTrial,
+        forced: Option<String>,
+        now: f64,
+        out: &mut VecDeque<Action>,
+    ) -> Self {
+        let PairedTrial { first, second, .. } = trial;
+        let until = now + 2.0 * trial.exploration_s;
+        out.push_back(Action::Render(Some(first.model.clone())));
+        out.push_back(Action::Show(Screen::Paired {
+            active: 0,
+            until_s: until,
+            forced: forced.clone(),
+        }));
+        Compare {
+            conditions: [first.clone(), second.clone()],
+            time: Exploration::until(until),
+            choice: None,
+            forced,
+        }
+    }
 }
 
 impl LiveTrial for Compare {
@@ -230,7 +248,12 @@ impl LiveTrial for Compare {
     }
 
     fn on_timeout(&mut self, _now: f64, out: &mut VecDeque<Action>) -> Next {
-        self.time.expire(Question::PairedChoice, out)
+        let question = if self.forced.is_some() {
+            Question::ForcedChoice
+        } else {
+            Question::PairedChoice
+        };
+        self.time.expire(question, out)
     }
 
     fn on_input(&mut self, now: f64, input: Input, out: &mut VecDeque<Action>) -> Next {
@@ -240,7 +263,15 @@ impl LiveTrial for Compare {
                 out.push_back(Action::Show(Screen::Paired {
                     active: i,
                     until_s: self.time.until,
+                    forced: self.forced.clone(),
                 }));
+                Next::Stay
+            }
+            // A forced choice has no "no difference".
+            Input::Answer(Answer::Paired(Choice::NoDifference)) if self.forced.is_some() => {
+                out.push_back(Action::Refused(
+                    "choose stimulus 1 or stimulus 2".into(),
+                ));
                 Next::Stay
             }
             Input::Answer(Answer::Paired(c)) => {

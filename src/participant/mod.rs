@@ -228,7 +228,14 @@ struct Slide {
     stimulus: usize,
     start: f64,
     trace: Vec<(f64, f64)>,
+    /// Forced choice: what the slide felt like.
+    felt: percept::BreakAway,
+    /// Paired comparison: each stimulus's distance to the desk, JNDs.
     distances: [f64; 2],
+    /// Forced choice: each stimulus's perceived friction strength, N.
+    strengths: [f64; 2],
+    /// A forced choice (which felt like more friction), not nearness.
+    forced: bool,
     answered: bool,
 }
 
@@ -318,15 +325,18 @@ impl SimParticipant {
                     reset_to: Some(0.0),
                 }
             }
-            Action::Show(Screen::Paired { active: 0, .. })
-                if !matches!(self.behaviour, Behaviour::Slide(_)) =>
-            {
+            Action::Show(Screen::Paired {
+                active: 0, forced, ..
+            }) if !matches!(self.behaviour, Behaviour::Slide(_)) => {
                 self.start_trial(trial);
                 self.behaviour = Behaviour::Slide(Slide {
                     stimulus: 0,
                     start: now,
                     trace: Vec::new(),
+                    felt: percept::BreakAway::default(),
                     distances: [0.0; 2],
+                    strengths: [0.0; 2],
+                    forced: forced.is_some(),
                     answered: false,
                 });
                 Reaction {
@@ -347,7 +357,7 @@ impl SimParticipant {
                     reset_to: None,
                 }
             }
-            Action::Ask(Question::PairedChoice) => Reaction {
+            Action::Ask(Question::PairedChoice | Question::ForcedChoice) => Reaction {
                 inputs: vec![Input::Answer(Answer::Paired(self.paired_choice()))],
                 reset_to: None,
             },
@@ -473,7 +483,7 @@ impl SimParticipant {
                     reset_to: None,
                 }
             }
-            Behaviour::Slide(sl) => self.slide_tick(sl, now, sample.force_n),
+            Behaviour::Slide(sl) => self.slide_tick(sl, now, sample),
             Behaviour::Tap(tap) => {
                 let traits = self.traits;
                 match tap.decide(&traits, now, sample.x_m, sample.v_m_s, |sd| self.normal(sd)) {
@@ -489,28 +499,45 @@ impl SimParticipant {
         reaction
     }
 
-    fn slide_tick(&mut self, sl: &mut Slide, now: f64, force_n: f64) -> Reaction {
-        sl.trace.push((now - sl.start, force_n));
+    fn slide_tick(&mut self, sl: &mut Slide, now: f64, sample: &DeviceSample) -> Reaction {
+        if sl.forced {
+            sl.felt
+                .add(now - sl.start, sample.x_m, sample.force_n, sample.vibration);
+        } else {
+            sl.trace.push((now - sl.start, sample.force_n));
+        }
         if now - sl.start <= SLIDE_REST_S + SLIDE_S || sl.answered {
             return Reaction::default();
         }
-        let desk = self.desk_memory();
-        let acuity = self.traits.acuity;
-        let felt = percept::slide_features(&sl.trace);
-        let perceived = acuity.perceive(felt, || self.normal(1.0));
-        sl.distances[sl.stimulus] = acuity.distance(perceived, desk);
+        if sl.forced {
+            let t = self.traits;
+            let strength = sl.felt.strength(t.breakaway_weight, t.tactile_gain_n);
+            sl.strengths[sl.stimulus] = strength.max(1e-9) * self.normal(t.acuity.force).exp();
+        } else {
+            let felt = percept::slide_features(&sl.trace);
+            let desk = self.desk_memory();
+            let acuity = self.traits.acuity;
+            let perceived = acuity.perceive(felt, || self.normal(1.0));
+            sl.distances[sl.stimulus] = acuity.distance(perceived, desk);
+        }
         if sl.stimulus == 0 {
             sl.stimulus = 1;
             sl.start = now;
             sl.trace.clear();
+            sl.felt = percept::BreakAway::default();
             return Reaction {
                 inputs: vec![Input::Switch(1)],
                 reset_to: Some(SLIDE_START_M),
             };
         }
         sl.answered = true;
+        let choice = if sl.forced {
+            Self::stronger(sl.strengths)
+        } else {
+            self.choose(sl.distances)
+        };
         Reaction {
-            inputs: vec![Input::Answer(Answer::Paired(self.choose(sl.distances)))],
+            inputs: vec![Input::Answer(Answer::Paired(choice))],
             reset_to: None,
         }
     }
@@ -533,11 +560,17 @@ impl SimParticipant {
     }
 
     fn paired_choice(&mut self) -> Choice {
-        let distances = match &self.behaviour {
-            Behaviour::Slide(sl) => sl.distances,
-            _ => [0.0, 0.0],
-        };
-        self.choose(distances)
+        match &self.behaviour {
+            Behaviour::Slide(sl) if sl.forced => Self::stronger(sl.strengths),
+            Behaviour::Slide(sl) => self.choose(sl.distances),
+            _ => self.choose([0.0, 0.0]),
+        }
+    }
+
+    /// A forced choice: the stimulus perceived as more friction (the first
+    /// on a tie, which two noisy percepts practically never are).
+    fn stronger([a, b]: [f64; 2]) -> Choice {
+        if b > a { Choice::Second } else { Choice::First }
     }
 
     fn choose(&self, [a, b]: [f64; 2]) -> Choice {

@@ -95,6 +95,59 @@ pub fn slide_features(trace: &[(f64, f64)]) -> Features {
     }
 }
 
+/// How far the device travels, from where the slide leaves rest, over
+/// which a forced choice's friction is felt, m. The slide's hand runs on
+/// for 4.8 cm of reference against the device's 3.2 cm range, so later in
+/// the slide the device can meet the end of its range, whose jolt is no
+/// friction (free: 15 mm, under half the range).
+pub const FORCED_TRAVEL_M: f64 = 0.015;
+
+/// What a two-interval forced choice ("which felt like more friction")
+/// feels of a slide: over the first [`FORCED_TRAVEL_M`] of travel after
+/// the rest, the break-away (peak |force|), the mean |force| and the RMS
+/// vibrotactile drive. Its strength is the magnitude estimate's `felt` of
+/// the module docs over that stretch: `w F_peak + (1 - w) F_mean + g
+/// V_rms`. The participant perceives it with log-normal noise of SD its
+/// force Weber fraction, so where the strength scales with a parameter
+/// its Weber fraction for that parameter at two-interval criterion `c` is
+/// `exp(sqrt(2) sigma Phi^-1(c)) - 1`.
+#[derive(Debug, Clone, Default)]
+pub struct BreakAway {
+    x0: Option<f64>,
+    peak: f64,
+    sum: f64,
+    n: f64,
+    vib2: f64,
+    done: bool,
+}
+
+impl BreakAway {
+    /// One tick `s` into the slide (rest included): device position, force
+    /// on the hand, vibrotactile drive.
+    pub fn add(&mut self, s: f64, x_m: f64, force_n: f64, vibration: f64) {
+        if s < SLIDE_REST_S || self.done {
+            return;
+        }
+        let x0 = *self.x0.get_or_insert(x_m);
+        if (x_m - x0).abs() > FORCED_TRAVEL_M {
+            self.done = true;
+            return;
+        }
+        self.peak = self.peak.max(force_n.abs());
+        self.sum += force_n.abs();
+        self.vib2 += vibration * vibration;
+        self.n += 1.0;
+    }
+
+    /// The felt strength with break-away weight `w` and tactile gain `g`
+    /// N per unit drive.
+    #[must_use]
+    pub fn strength(&self, w: f64, g: f64) -> f64 {
+        let n = self.n.max(1.0);
+        w * self.peak + (1.0 - w) * self.sum / n + g * (self.vib2 / n).sqrt()
+    }
+}
+
 /// The hand of a slide: seed 000's reference motion through the hand's own
 /// impedance (no integral term: the hand regulates speed, not position).
 #[must_use]

@@ -156,4 +156,12 @@ pub const SHIPPED: &[(&str, &str)] = &[
         include_str!("../../protocols/fitts-quick.json"),
     ),
     ("fitts.json", include_str!("../../protocols/fitts.json")),
+    (
+        "discrimination-quick.json",
+        include_str!("../../protocols/discrimination-quick.json"),
+    ),
+    (
+        "discrimination.json",
+        include_str!("../../protocols/discrimination.json"),
+    ),
 ];

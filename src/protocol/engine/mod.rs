@@ -108,12 +108,17 @@ pub enum Screen {
         /// End of the exploration, s.
         until_s: f64,
     },
-    /// Paired comparison: stimulus `active` (0 first, 1 second) is rendered.
+    /// Two stimuli, `active` (0 first, 1 second) rendered: a paired
+    /// comparison, or a discrimination's two intervals.
     Paired {
         /// Active stimulus.
         active: usize,
         /// End of the exploration, s.
         until_s: f64,
+        /// A two-interval forced choice asking this question (answered
+        /// first or second, [`Question::ForcedChoice`]); `None`: the paired
+        /// comparison's nearness to the real surface.
+        forced: Option<String>,
     },
     /// Fitts: the lit target and the other one.
     Fitts {
@@ -139,6 +144,8 @@ pub enum Question {
     Magnitude,
     /// First, second or no difference.
     PairedChoice,
+    /// First or second: the question of the [`Screen::Paired`] shown.
+    ForcedChoice,
 }
 
 /// What the engine asks the shell to do.

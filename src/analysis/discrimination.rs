@@ -1,0 +1,355 @@
+//! Friction discrimination (issue 17): a psychometric function fitted to
+//! each participant's answers at each reference level, the threshold at the
+//! protocol's criterion, JND and Weber fraction with parametric-bootstrap
+//! intervals, and group summaries per level.
+//!
+//! # The fit
+//! Maximum likelihood over every completed answer of a track (participant
+//! and reference level), grouped by difference
+//! (`frictionlab_psychophysics::fit`): the protocol's shape, guess rate 0.5
+//! (two intervals), lapse rate free within `[0, fit.max_lapse]`. The
+//! threshold is the difference where the fitted function reaches the
+//! protocol's `criterion` (lapse included). JND = comparison - reference
+//! at the threshold; Weber fraction = JND / reference.
+//!
+//! # Intervals
+//! Parametric bootstrap (`fit.bootstrap` samples): answers drawn from the
+//! fitted function at the track's differences and counts, refitted; the
+//! 2.5th and 97.5th percentiles of the refitted thresholds (JND and Weber
+//! fraction are monotone in it). Each track's bootstrap is seeded from its
+//! participant and level, so a report is the same on every run.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use frictionlab_psychophysics::fit::{Block, Fit, FitSpec, blocks, bootstrap_threshold, fit};
+use frictionlab_psychophysics::psychometric::{GUESS_2IFC, Psychometric};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde_json::{Value, json};
+
+use super::{Rows, Table, num, opt, text};
+use crate::kinds::Design;
+use crate::kinds::discrimination::{Comparison, DiscriminationDesign};
+use crate::participant::id_hash;
+use crate::problem::Problem;
+use crate::results::ResultsDir;
+
+/// One track's fit.
+#[derive(Debug, Clone)]
+pub struct TrackFit {
+    /// The participant.
+    pub participant: String,
+    /// The reference level.
+    pub level: f64,
+    /// Its answers as `(difference, correct)`, in session order.
+    pub answers: Vec<(f64, bool)>,
+    /// Answers grouped by difference.
+    pub blocks: Vec<Block>,
+    /// The maximum-likelihood fit.
+    pub fit: Option<Fit>,
+    /// Threshold difference at the criterion, and its 95% interval.
+    pub threshold: Option<f64>,
+    /// Bootstrap interval of the threshold.
+    pub threshold_ci: Option<(f64, f64)>,
+    /// JND, parameter units.
+    pub jnd: Option<f64>,
+    /// Weber fraction and its interval.
+    pub weber: Option<f64>,
+    /// Bootstrap interval of the Weber fraction.
+    pub weber_ci: Option<(f64, f64)>,
+}
+
+/// The discrimination results.
+#[derive(Debug, Clone)]
+pub struct Discrimination {
+    /// The `discrimination` object of `summary.json`.
+    pub summary: Value,
+    /// Tables.
+    pub tables: Vec<Table>,
+    /// Why some statistics are n/a.
+    pub notes: Vec<String>,
+    /// Every track's fit, by participant then level.
+    pub tracks: Vec<TrackFit>,
+    /// The design the fits follow.
+    pub design: DiscriminationDesign,
+}
+
+/// The discrimination design of the first session log in `folder` that has
+/// one.
+fn design_of(folder: &Path) -> Option<DiscriminationDesign> {
+    ResultsDir::new(folder)
+        .headers()
+        .into_iter()
+        .find_map(|h| match h.protocol.design {
+            Design::Discrimination(d) => Some(d),
+            _ => None,
+        })
+}
+
+/// Fits one track.
+#[must_use]
+pub fn fit_track(
+    design: &DiscriminationDesign,
+    participant: &str,
+    level: f64,
+    answers: Vec<(f64, bool)>,
+) -> TrackFit {
+    let spec = FitSpec {
+        shape: design.fit.shape,
+        guess: GUESS_2IFC,
+        max_lapse: design.fit.max_lapse,
+    };
+    let data = blocks(&answers);
+    let fitted = fit(&spec, &data);
+    let threshold = fitted.and_then(|f| {
+        Psychometric {
+            shape: spec.shape,
+            params: f.params,
+            guess: spec.guess,
+        }
+        .threshold_at(design.criterion)
+    });
+    let threshold_ci = fitted.filter(|_| threshold.is_some()).and_then(|f| {
+        let mut rng =
+            ChaCha8Rng::seed_from_u64(id_hash(participant) ^ level.to_bits().rotate_left(17));
+        bootstrap_threshold(
+            &spec,
+            &f,
+            &data,
+            design.criterion,
+            design.fit.bootstrap,
+            0.95,
+            &mut rng,
+        )
+        .map(|b| (b.interval.lo, b.interval.hi))
+    });
+    let c = design.comparison;
+    let jnd = threshold.map(|x| c.value(level, x) - level);
+    let weber = threshold.map(|x| c.weber(level, x));
+    let weber_ci = threshold_ci.map(|(lo, hi)| (c.weber(level, lo), c.weber(level, hi)));
+    TrackFit {
+        participant: participant.to_owned(),
+        level,
+        answers,
+        blocks: data,
+        fit: fitted,
+        threshold,
+        threshold_ci,
+        jnd,
+        weber,
+        weber_ci,
+    }
+}
+
+/// Analyses the discrimination rows of `folder`.
+///
+/// # Errors
+/// No session log in the folder holds the discrimination protocol, or a
+/// cell is not a number (`level`, `difference`) or 0/1 (`correct`).
+pub fn analyze(rows: &Rows, folder: &Path) -> Result<Discrimination, Problem> {
+    let design = design_of(folder).ok_or_else(|| {
+        Problem::new(
+            folder.display().to_string(),
+            "no session log holds the discrimination protocol, which the fits need (its criterion, shape and lapse bound)",
+        )
+    })?;
+    let mut by_track: BTreeMap<(String, u64), Vec<(f64, bool)>> = BTreeMap::new();
+    for i in 0..rows.len() {
+        let level = rows.number("level", i)?;
+        let difference = rows.number("difference", i)?;
+        let correct = match rows.text("correct", i) {
+            "1" => true,
+            "0" => false,
+            other => {
+                return Err(rows.error("correct", i, &format!("'{other}': expected 0 or 1")));
+            }
+        };
+        by_track
+            .entry((rows.text("participant", i).to_owned(), level.to_bits()))
+            .or_default()
+            .push((difference, correct));
+    }
+    let tracks: Vec<TrackFit> = by_track
+        .into_iter()
+        .map(|((p, level), answers)| fit_track(&design, &p, f64::from_bits(level), answers))
+        .collect();
+    let mut notes = Vec::new();
+    for t in &tracks {
+        if t.threshold.is_none() {
+            notes.push(format!(
+                "discrimination: participant {} at level {}: no threshold ({} answers): the fitted function does not reach the criterion {} within the differences",
+                t.participant,
+                t.level,
+                t.answers.len(),
+                design.criterion
+            ));
+        }
+    }
+    let groups = group_summary(&design, &tracks);
+    let fits: Vec<Value> = tracks.iter().map(fit_json).collect();
+    let summary = json!({
+        "parameter": design.parameter,
+        "comparison": match design.comparison {
+            Comparison::Ratio => "ratio",
+            Comparison::Offset => "offset",
+        },
+        "criterion": design.criterion,
+        "shape": design.fit.shape,
+        "guess": GUESS_2IFC,
+        "max_lapse": design.fit.max_lapse,
+        "bootstrap": design.fit.bootstrap,
+        "levels": groups,
+        "fits": fits,
+    });
+    let tables = tables(&tracks, &groups);
+    Ok(Discrimination {
+        summary,
+        tables,
+        notes,
+        tracks,
+        design,
+    })
+}
+
+/// One track's fit as `summary.json` has it.
+fn fit_json(t: &TrackFit) -> Value {
+    json!({
+        "participant": t.participant,
+        "level": t.level,
+        "trials": t.answers.len(),
+        "proportion_correct": proportion(&t.answers),
+        "threshold": t.threshold,
+        "threshold_ci": t.threshold_ci.map(|(a, b)| [a, b]),
+        "slope": t.fit.map(|f| f.params.slope),
+        "location": t.fit.map(|f| f.params.threshold),
+        "lapse": t.fit.map(|f| f.params.lapse),
+        "log_likelihood": t.fit.map(|f| f.log_likelihood),
+        "jnd": t.jnd,
+        "weber": t.weber,
+        "weber_ci": t.weber_ci.map(|(a, b)| [a, b]),
+    })
+}
+
+/// The per-level and per-track tables.
+fn tables(tracks: &[TrackFit], groups: &[Value]) -> Vec<Table> {
+    let table = Table {
+        name: "discrimination_fits".into(),
+        columns: [
+            "participant",
+            "level",
+            "trials",
+            "threshold",
+            "threshold_lo",
+            "threshold_hi",
+            "slope",
+            "lapse",
+            "jnd",
+            "weber",
+            "weber_lo",
+            "weber_hi",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: tracks
+            .iter()
+            .map(|t| {
+                #[expect(clippy::cast_precision_loss, reason = "a trial count")]
+                let n = t.answers.len() as f64;
+                vec![
+                    text(t.participant.clone()),
+                    num(t.level),
+                    num(n),
+                    opt(t.threshold),
+                    opt(t.threshold_ci.map(|c| c.0)),
+                    opt(t.threshold_ci.map(|c| c.1)),
+                    opt(t.fit.map(|f| f.params.slope)),
+                    opt(t.fit.map(|f| f.params.lapse)),
+                    opt(t.jnd),
+                    opt(t.weber),
+                    opt(t.weber_ci.map(|c| c.0)),
+                    opt(t.weber_ci.map(|c| c.1)),
+                ]
+            })
+            .collect(),
+    };
+    let group_table = Table {
+        name: "discrimination_levels".into(),
+        columns: [
+            "level",
+            "participants",
+            "weber_mean",
+            "weber_sd",
+            "weber_median",
+            "jnd_mean",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: groups
+            .iter()
+            .map(|g| {
+                vec![
+                    num(g["level"].as_f64().unwrap_or(f64::NAN)),
+                    num(g["participants"].as_f64().unwrap_or(0.0)),
+                    opt(g["weber_mean"].as_f64()),
+                    opt(g["weber_sd"].as_f64()),
+                    opt(g["weber_median"].as_f64()),
+                    opt(g["jnd_mean"].as_f64()),
+                ]
+            })
+            .collect(),
+    };
+    vec![group_table, table]
+}
+
+fn proportion(answers: &[(f64, bool)]) -> Option<f64> {
+    #[expect(clippy::cast_precision_loss, reason = "trial counts")]
+    let p = answers.iter().filter(|a| a.1).count() as f64 / answers.len() as f64;
+    (!answers.is_empty()).then_some(p)
+}
+
+/// Per level (in the design's order): the participants with a Weber
+/// fraction, their mean, SD and median, and the mean JND.
+fn group_summary(design: &DiscriminationDesign, tracks: &[TrackFit]) -> Vec<Value> {
+    design
+        .levels
+        .iter()
+        .map(|&level| {
+            let mut webers: Vec<f64> = tracks
+                .iter()
+                .filter(|t| t.level.to_bits() == level.to_bits())
+                .filter_map(|t| t.weber)
+                .collect();
+            let jnds: Vec<f64> = tracks
+                .iter()
+                .filter(|t| t.level.to_bits() == level.to_bits())
+                .filter_map(|t| t.jnd)
+                .collect();
+            webers.sort_by(f64::total_cmp);
+            #[expect(clippy::cast_precision_loss, reason = "participant counts")]
+            let n = webers.len() as f64;
+            let mean = (n > 0.0).then(|| webers.iter().sum::<f64>() / n);
+            let sd = mean
+                .filter(|_| n > 1.0)
+                .map(|m| (webers.iter().map(|w| (w - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt());
+            let median = (!webers.is_empty()).then(|| {
+                let k = webers.len();
+                if k % 2 == 1 {
+                    webers[k / 2]
+                } else {
+                    0.5 * (webers[k / 2 - 1] + webers[k / 2])
+                }
+            });
+            #[expect(clippy::cast_precision_loss, reason = "participant counts")]
+            let jnd_mean = (!jnds.is_empty()).then(|| jnds.iter().sum::<f64>() / jnds.len() as f64);
+            json!({
+                "level": level,
+                "participants": webers.len(),
+                "weber_mean": mean,
+                "weber_sd": sd,
+                "weber_median": median,
+                "jnd_mean": jnd_mean,
+            })
+        })
+        .collect()
+}

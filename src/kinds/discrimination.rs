@@ -1,0 +1,849 @@
+//! Friction discrimination (issue 17): how small a difference of one model
+//! parameter a person can feel, at several reference levels.
+//!
+//! Each trial is a two-interval forced choice: a reference and a
+//! comparison, in an order drawn per trial, each explored as in a paired
+//! comparison (the participant switches between them); then the protocol's
+//! question ("which felt like more friction?") is answered first or
+//! second. The comparison differs from the reference in one parameter of
+//! the model (`parameter`, a field of the model object such as `mu_s` or
+//! `static_friction.mu_s`) by a difference given as a ratio
+//! (`level (1 + x)`) or an offset (`level + x`). The correct answer is the
+//! comparison: the question must ask for the stimulus with more of the
+//! parameter.
+//!
+//! Each reference level is one track of the protocol's adaptive method
+//! (`frictionlab_psychophysics::adaptive`): a transformed up-down
+//! staircase (1-up-n-down, optionally with Kaernbach's weighted steps) or
+//! QUEST+. Each trial draws one of the tracks not yet stopped, at random,
+//! and presents the difference that track asks for. The session ends when
+//! every track has stopped.
+//!
+//! # State and resume
+//! A track's state is a pure function of its answers: the trial source
+//! replays the logged, completed answers of each track through its method
+//! whenever it chooses a trial, so a session resumed after `kill -9`
+//! continues every track exactly. Each record also logs the state its
+//! stimulus was chosen in (trials, reversals, the current estimate and its
+//! SD) as plain data.
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+
+use frictionlab_psychophysics::adaptive::{
+    QuestPlus, QuestPlusSpec, Staircase, StaircaseRule, kaernbach_up_ratio,
+};
+use frictionlab_psychophysics::psychometric::Shape;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use super::paired::{Compare, Paired, PairedData, PairedTrial};
+use super::{AnalysisEntry, LiveTrial, Next, StudyKind, TrialData};
+use crate::analysis::Section;
+use crate::friction::ModelParams;
+use crate::protocol::check::Checks;
+use crate::protocol::engine::{Action, Choice, Input, Status, TrialRecord, TrialSource};
+use crate::protocol::load::Walk;
+use crate::protocol::plan::PlannedTrial;
+use crate::protocol::{Condition, Protocol};
+
+/// The discrimination kind.
+#[derive(Debug)]
+pub struct Discrimination;
+
+/// How the comparison differs from the reference.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Comparison {
+    /// `level (1 + x)`: `x` is the Weber fraction itself.
+    Ratio,
+    /// `level + x`, in the parameter's units.
+    Offset,
+}
+
+impl Comparison {
+    /// The comparison's value for reference `level` and difference `x`.
+    #[must_use]
+    pub fn value(self, level: f64, x: f64) -> f64 {
+        match self {
+            Comparison::Ratio => level * (1.0 + x),
+            Comparison::Offset => level + x,
+        }
+    }
+
+    /// The Weber fraction of a difference `x` at reference `level`.
+    #[must_use]
+    pub fn weber(self, level: f64, x: f64) -> f64 {
+        match self {
+            Comparison::Ratio => x,
+            Comparison::Offset => x / level,
+        }
+    }
+}
+
+/// A grid of values: listed, or `count` values from `from` to `to`
+/// (both included), evenly or log-evenly spaced.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(untagged)]
+pub enum Grid {
+    /// The values, ascending.
+    List(Vec<f64>),
+    /// A spaced range.
+    Range {
+        /// First value.
+        from: f64,
+        /// Last value.
+        to: f64,
+        /// How many values (at least 2).
+        count: usize,
+        /// `linear` or `log`.
+        #[serde(default)]
+        spacing: Spacing,
+    },
+}
+
+/// The spacing of a [`Grid::Range`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Spacing {
+    /// Equal differences.
+    #[default]
+    Linear,
+    /// Equal ratios (both ends > 0).
+    Log,
+}
+
+impl Grid {
+    /// The grid's values (a range with a bad count or a log range through 0
+    /// gives what it can; the design checks report those).
+    #[must_use]
+    pub fn values(&self) -> Vec<f64> {
+        match self {
+            Grid::List(v) => v.clone(),
+            Grid::Range {
+                from,
+                to,
+                count,
+                spacing,
+            } => {
+                let n = (*count).clamp(1, 10_000);
+                #[expect(clippy::cast_precision_loss, reason = "a small count")]
+                let at = |i: usize| {
+                    let f = if n == 1 {
+                        0.0
+                    } else {
+                        i as f64 / (n - 1) as f64
+                    };
+                    match spacing {
+                        Spacing::Linear => from + (to - from) * f,
+                        Spacing::Log => (from.ln() + (to.ln() - from.ln()) * f).exp(),
+                    }
+                };
+                (0..n).map(at).collect()
+            }
+        }
+    }
+}
+
+/// A transformed up-down staircase over the difference `x`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct StaircaseMethod {
+    /// Correct answers in a row that step the difference down: 2
+    /// (1-up-2-down, converging on 70.7% correct) or 3 (1-up-3-down,
+    /// 79.4%); 1 with `target` for Kaernbach's weighted 1-up-1-down.
+    pub down: u32,
+    /// First difference.
+    pub start: f64,
+    /// Down-step per phase: `steps[k]` after `k` reversals, the last one
+    /// thereafter.
+    pub steps: Vec<f64>,
+    /// Kaernbach's (1991) weighted steps: the up step is the down step
+    /// times `p^down / (1 - p^down)`, so the track converges on proportion
+    /// correct `p` = `target`. Without it, up and down steps are equal.
+    #[serde(default)]
+    pub target: Option<f64>,
+    /// Smallest difference presented.
+    pub min: f64,
+    /// Largest difference presented.
+    pub max: f64,
+    /// Stop a track after this many trials.
+    #[serde(default)]
+    pub stop_trials: Option<u32>,
+    /// Or after this many reversals.
+    #[serde(default)]
+    pub stop_reversals: Option<u32>,
+}
+
+impl StaircaseMethod {
+    /// The staircase's rule.
+    #[must_use]
+    pub fn rule(&self) -> StaircaseRule {
+        StaircaseRule {
+            down: self.down,
+            start: self.start,
+            steps: self.steps.clone(),
+            up_ratio: self.target.map_or(1.0, |p| kaernbach_up_ratio(self.down, p)),
+            min: self.min,
+            max: self.max,
+            stop_trials: self.stop_trials,
+            stop_reversals: self.stop_reversals,
+        }
+    }
+}
+
+/// QUEST+ (Watson 2017) over the difference `x`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct QuestPlusMethod {
+    /// The psychometric function's shape.
+    pub shape: Shape,
+    /// The differences it may present.
+    pub stimuli: Grid,
+    /// Threshold (location) grid, in units of the difference.
+    pub thresholds: Grid,
+    /// Slope grid.
+    pub slopes: Grid,
+    /// Lapse-rate grid.
+    pub lapses: Grid,
+    /// Stop a track after this many trials.
+    #[serde(default)]
+    pub stop_trials: Option<u32>,
+    /// Or once the threshold's posterior SD is at most this.
+    #[serde(default)]
+    pub stop_threshold_sd: Option<f64>,
+    /// Always stop here.
+    pub max_trials: u32,
+}
+
+impl QuestPlusMethod {
+    /// The method's specification for a two-interval task.
+    #[must_use]
+    pub fn spec(&self) -> QuestPlusSpec {
+        QuestPlusSpec {
+            shape: self.shape,
+            guess: frictionlab_psychophysics::psychometric::GUESS_2IFC,
+            stimuli: self.stimuli.values(),
+            thresholds: self.thresholds.values(),
+            slopes: self.slopes.values(),
+            lapses: self.lapses.values(),
+            stop_trials: self.stop_trials,
+            stop_threshold_sd: self.stop_threshold_sd,
+            max_trials: self.max_trials,
+        }
+    }
+}
+
+/// The adaptive method of every track.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Method {
+    /// A transformed up-down staircase.
+    Staircase(StaircaseMethod),
+    /// QUEST+.
+    QuestPlus(QuestPlusMethod),
+}
+
+/// How the analysis fits each track's answers.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FitSettings {
+    /// The psychometric function's shape.
+    pub shape: Shape,
+    /// Upper bound of the free lapse rate (guess rate 0.5).
+    pub max_lapse: f64,
+    /// Parametric-bootstrap samples for the confidence intervals.
+    pub bootstrap: u32,
+}
+
+/// A discrimination study's design.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DiscriminationDesign {
+    /// Why the study is set up as it is (free text, kept in the protocol).
+    #[serde(default)]
+    pub reasons: Option<String>,
+    /// The model; its `parameter` is set to each level and comparison.
+    pub reference: ModelParams,
+    /// The parameter varied: a field of the model object, nested fields
+    /// joined by dots (`static_friction.mu_s`).
+    pub parameter: String,
+    /// The reference levels of the parameter, one track each.
+    pub levels: Vec<f64>,
+    /// How the comparison differs from the reference.
+    pub comparison: Comparison,
+    /// The question, asking for the stimulus with more of the parameter.
+    pub question: String,
+    /// Longest exploration of each stimulus, s.
+    pub exploration_s: f64,
+    /// The proportion correct that defines the threshold (0.5-1).
+    pub criterion: f64,
+    /// The adaptive method of every track.
+    pub method: Method,
+    /// The analysis's psychometric fit.
+    pub fit: FitSettings,
+}
+
+/// One discrimination trial.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DiscriminationTrial {
+    /// The two stimuli, in presentation order (ids `reference`,
+    /// `comparison`).
+    pub pair: PairedTrial,
+    /// The question.
+    pub question: String,
+    /// The track (index of its level).
+    pub track: usize,
+    /// The reference level.
+    pub level: f64,
+    /// The difference presented.
+    pub difference: f64,
+    /// The comparison's parameter value.
+    pub comparison_value: f64,
+    /// The track's state its difference was chosen in.
+    pub state: TrackState,
+}
+
+/// A track's state as plain data.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct TrackState {
+    /// Completed trials of the track before this one.
+    pub trials: u32,
+    /// Staircase reversals so far (0 for QUEST+).
+    pub reversals: u32,
+    /// The current estimate of the threshold difference: the mean of the
+    /// reversals so far (staircase; none before the first), or the
+    /// posterior mean (QUEST+).
+    pub estimate: Option<f64>,
+    /// QUEST+: the threshold's posterior SD.
+    pub estimate_sd: Option<f64>,
+}
+
+/// What a discrimination trial logs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DiscriminationData {
+    /// The track (index of its level).
+    pub track: usize,
+    /// The reference level.
+    pub level: f64,
+    /// The difference presented.
+    pub difference: f64,
+    /// The comparison's parameter value.
+    pub comparison_value: f64,
+    /// The answer, as a paired comparison logs it.
+    pub answer: PairedData,
+    /// Whether the comparison was chosen (none before an answer).
+    pub correct: Option<bool>,
+    /// The track's state the difference was chosen in.
+    pub state: TrackState,
+}
+
+/// The live trial: a forced-choice comparison that remembers its track.
+#[derive(Debug, Clone)]
+pub struct Interval2 {
+    compare: Compare,
+    trial: DiscriminationTrial,
+}
+
+/// `model` with `parameter` (a dotted field path) set to `value`; `None`
+/// if the model has no such numeric field.
+#[must_use]
+pub fn with_parameter(model: &ModelParams, parameter: &str, value: f64) -> Option<ModelParams> {
+    let mut v = serde_json::to_value(model).ok()?;
+    let mut at = &mut v;
+    for key in parameter.split('.') {
+        if key == "model" {
+            return None;
+        }
+        at = at.as_object_mut()?.get_mut(key)?;
+    }
+    if !at.is_number() {
+        return None;
+    }
+    *at = serde_json::Number::from_f64(value).map(Value::Number)?;
+    serde_json::from_value(v).ok()
+}
+
+/// The value of `parameter` in `model`.
+#[must_use]
+pub fn parameter_value(model: &ModelParams, parameter: &str) -> Option<f64> {
+    let v = serde_json::to_value(model).ok()?;
+    let mut at = &v;
+    for key in parameter.split('.') {
+        at = at.as_object()?.get(key)?;
+    }
+    at.as_f64()
+}
+
+/// Checks the adaptive method; returns the smallest and largest difference
+/// it may present.
+fn method_range(method: &Method, c: &mut Checks) -> (f64, f64) {
+    match method {
+        Method::Staircase(s) => {
+            for (k, &step) in s.steps.iter().enumerate() {
+                c.positive(&format!("method.steps[{k}]"), step);
+            }
+            if let Err((field, message)) = s.rule().check()
+                && field != "steps"
+            {
+                c.err(&format!("method.{field}"), message);
+            }
+            if let Some(p) = s.target
+                && !(p > 0.5 && p < 1.0)
+            {
+                c.err(
+                    "method.target",
+                    format!("a two-interval target lies between 0.5 and 1, got {p}"),
+                );
+            }
+            (s.min, s.max)
+        }
+        Method::QuestPlus(q) => {
+            if let Err((field, message)) = q.spec().check() {
+                c.err(&format!("method.{field}"), message);
+            }
+            let v = q.stimuli.values();
+            (
+                v.iter().copied().fold(f64::INFINITY, f64::min),
+                v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            )
+        }
+    }
+}
+
+impl StudyKind for Discrimination {
+    type Design = DiscriminationDesign;
+    type Trial = DiscriminationTrial;
+    type Live = Interval2;
+    type Data = DiscriminationData;
+
+    const COLUMNS: &'static [&'static str] = &[
+        "track",
+        "level",
+        "difference",
+        "comparison_value",
+        "first",
+        "second",
+        "choice",
+        "chosen",
+        "correct",
+    ];
+
+    const ANALYSIS: Option<AnalysisEntry> = Some(AnalysisEntry {
+        marker: "comparison_value",
+        unread: &["first", "second", "choice", "chosen"],
+        optional: &[],
+        counts_aborted: false,
+        run: |rows, folder| {
+            let d = crate::analysis::discrimination::analyze(rows, folder)?;
+            Ok(Section {
+                html: crate::analysis::report::discrimination_section(&d),
+                summary: d.summary,
+                notes: d.notes,
+                tables: d.tables,
+            })
+        },
+    });
+
+    fn read(w: &mut Walk, v: &Value, path: &str) -> Option<DiscriminationDesign> {
+        let keys = [
+            "kind",
+            "reasons",
+            "reference",
+            "parameter",
+            "levels",
+            "comparison",
+            "question",
+            "exploration_s",
+            "criterion",
+            "method",
+            "fit",
+        ];
+        let m = w.object(v, path, &keys)?;
+        let reasons = w.optional(m, "reasons", path, None);
+        let reference = w.model_field(m, "reference", path);
+        let parameter = w.required(m, "parameter", path);
+        let levels = w.required(m, "levels", path);
+        let comparison = w.required(m, "comparison", path);
+        let question = w.required(m, "question", path);
+        let exploration_s = w.required(m, "exploration_s", path);
+        let criterion = w.required(m, "criterion", path);
+        let method = w.required(m, "method", path);
+        let fit = w.required(m, "fit", path);
+        Some(DiscriminationDesign {
+            reasons: reasons?,
+            reference: reference?,
+            parameter: parameter?,
+            levels: levels?,
+            comparison: comparison?,
+            question: question?,
+            exploration_s: exploration_s?,
+            criterion: criterion?,
+            method: method?,
+            fit: fit?,
+        })
+    }
+
+    fn check(d: &DiscriminationDesign, c: &mut Checks) {
+        c.positive("exploration_s", d.exploration_s);
+        if d.question.trim().is_empty() {
+            c.err("question", "the participant needs a question");
+        }
+        if !(d.criterion > 0.5 && d.criterion < 1.0) {
+            c.err(
+                "criterion",
+                format!(
+                    "a two-interval criterion lies between 0.5 (chance) and 1, got {}",
+                    d.criterion
+                ),
+            );
+        }
+        if !(d.fit.max_lapse >= 0.0 && d.fit.max_lapse < 1.0 - d.criterion) {
+            c.err(
+                "fit.max_lapse",
+                format!(
+                    "must be at least 0 and below 1 - criterion ({}), or the fitted function may never reach the criterion; got {}",
+                    1.0 - d.criterion,
+                    d.fit.max_lapse
+                ),
+            );
+        }
+        if d.fit.bootstrap < 100 {
+            c.err(
+                "fit.bootstrap",
+                format!("at least 100 samples for a 95% interval, got {}", d.fit.bootstrap),
+            );
+        }
+        if parameter_value(&d.reference, &d.parameter).is_none() {
+            c.err(
+                "parameter",
+                format!(
+                    "the reference model ('{}') has no numeric parameter '{}'",
+                    d.reference.name(),
+                    d.parameter
+                ),
+            );
+            return;
+        }
+        if d.levels.is_empty() {
+            c.err("levels", "no reference levels: the protocol has zero trials");
+        }
+        let (lo, hi) = method_range(&d.method, c);
+        if lo <= 0.0 {
+            c.err(
+                "method",
+                format!("differences must be greater than 0 (the comparison has more of the parameter), got {lo}"),
+            );
+        }
+        for (i, &level) in d.levels.iter().enumerate() {
+            let path = format!("levels[{i}]");
+            let problem = |value: f64| match with_parameter(&d.reference, &d.parameter, value) {
+                None => Some(format!("{value} is not a valid value of '{}'", d.parameter)),
+                Some(m) => m.first_problem().map(|p| {
+                    let within = p.within.map_or(String::new(), |w| format!("{w}."));
+                    format!("{within}{} {p}", p.field)
+                }),
+            };
+            if !level.is_finite() {
+                c.err(&path, format!("must be a finite number, got {level}"));
+                continue;
+            }
+            if let Some(p) = problem(level) {
+                c.err(
+                    &path,
+                    format!(
+                        "reference {level} is outside the model's valid range: {p}"
+                    ),
+                );
+                continue;
+            }
+            let top = d.comparison.value(level, hi);
+            if let Some(p) = problem(top) {
+                c.err(
+                    &path,
+                    format!(
+                        "the comparison at the largest difference ({hi}) is {top}, outside the model's valid range: {p}"
+                    ),
+                );
+            }
+        }
+    }
+
+    fn source(
+        _protocol: &Protocol,
+        design: &DiscriminationDesign,
+        seed: u64,
+        _participant_index: u32,
+    ) -> Arc<dyn TrialSource> {
+        Arc::new(Source {
+            design: design.clone(),
+            seed,
+        })
+    }
+
+    fn loop_rate_hz(t: &DiscriminationTrial) -> f64 {
+        Paired::loop_rate_hz(&t.pair)
+    }
+
+    fn start(t: &DiscriminationTrial, now: f64, out: &mut VecDeque<Action>) -> Interval2 {
+        Interval2 {
+            compare: Compare::start(&t.pair, Some(t.question.clone()), now, out),
+            trial: t.clone(),
+        }
+    }
+
+    fn row(d: &DiscriminationData) -> Vec<String> {
+        use crate::results::csv::opt;
+        let mut row = vec![
+            d.track.to_string(),
+            d.level.to_string(),
+            d.difference.to_string(),
+            d.comparison_value.to_string(),
+        ];
+        row.extend(Paired::row(&d.answer));
+        row.push(opt(d.correct.map(|c| if c { "1" } else { "0" })));
+        row
+    }
+}
+
+impl LiveTrial for Interval2 {
+    type Data = DiscriminationData;
+
+    fn timeout(&self) -> Option<f64> {
+        self.compare.timeout()
+    }
+
+    fn on_timeout(&mut self, now: f64, out: &mut VecDeque<Action>) -> Next {
+        self.compare.on_timeout(now, out)
+    }
+
+    fn on_input(&mut self, now: f64, input: Input, out: &mut VecDeque<Action>) -> Next {
+        self.compare.on_input(now, input, out)
+    }
+
+    fn data(&self, started: f64, now: f64, completed: bool) -> DiscriminationData {
+        let answer = self.compare.data(started, now, completed);
+        let correct = answer
+            .choice
+            .filter(|c| *c != Choice::NoDifference)
+            .map(|_| answer.chosen.as_deref() == Some(COMPARISON));
+        let t = &self.trial;
+        DiscriminationData {
+            track: t.track,
+            level: t.level,
+            difference: t.difference,
+            comparison_value: t.comparison_value,
+            answer,
+            correct,
+            state: t.state,
+        }
+    }
+}
+
+/// The comparison's condition id.
+pub const COMPARISON: &str = "comparison";
+/// The reference's condition id.
+pub const REFERENCE: &str = "reference";
+
+/// One track's method, live.
+#[derive(Debug, Clone)]
+pub enum TrackMethod {
+    /// A staircase and its rule.
+    Staircase(Staircase, StaircaseRule),
+    /// QUEST+.
+    QuestPlus(Box<QuestPlus>),
+}
+
+impl TrackMethod {
+    /// A fresh track of `method`.
+    #[must_use]
+    pub fn new(method: &Method) -> Self {
+        match method {
+            Method::Staircase(s) => {
+                let rule = s.rule();
+                TrackMethod::Staircase(Staircase::new(&rule), rule)
+            }
+            Method::QuestPlus(q) => TrackMethod::QuestPlus(Box::new(QuestPlus::new(&q.spec()))),
+        }
+    }
+
+    /// The next difference, `None` once stopped.
+    #[must_use]
+    pub fn next(&self) -> Option<f64> {
+        match self {
+            TrackMethod::Staircase(s, rule) => s.next(rule),
+            TrackMethod::QuestPlus(q) => q.next(),
+        }
+    }
+
+    /// Takes one answer at difference `x`.
+    pub fn update(&mut self, x: f64, correct: bool) {
+        match self {
+            TrackMethod::Staircase(s, rule) => s.update(rule, correct),
+            TrackMethod::QuestPlus(q) => q.update(x, correct),
+        }
+    }
+
+    /// The state as plain data.
+    #[must_use]
+    pub fn state(&self) -> TrackState {
+        match self {
+            TrackMethod::Staircase(s, _) => TrackState {
+                trials: s.trials(),
+                reversals: u32::try_from(s.reversals().len()).unwrap_or(u32::MAX),
+                estimate: s.estimate(0),
+                estimate_sd: None,
+            },
+            TrackMethod::QuestPlus(q) => TrackState {
+                trials: q.trials(),
+                reversals: 0,
+                estimate: Some(q.mean().threshold),
+                estimate_sd: Some(q.threshold_sd()),
+            },
+        }
+    }
+}
+
+/// Every track of `design` after the completed answers of `history`
+/// (re-queued and aborted trials change nothing).
+#[must_use]
+pub fn replay(design: &DiscriminationDesign, history: &[TrialRecord]) -> Vec<TrackMethod> {
+    let mut tracks: Vec<TrackMethod> = design
+        .levels
+        .iter()
+        .map(|_| TrackMethod::new(&design.method))
+        .collect();
+    for r in history
+        .iter()
+        .filter(|r| !r.requeued && r.status == Status::Completed)
+    {
+        let TrialData::Discrimination(d) = &r.data else {
+            continue;
+        };
+        if let (Some(track), Some(correct)) = (tracks.get_mut(d.track), d.correct) {
+            track.update(d.difference, correct);
+        }
+    }
+    tracks
+}
+
+/// One track's answers so far, for the experimenter's live view.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrackAnswers {
+    /// The track (index of its level).
+    pub track: usize,
+    /// Its reference level.
+    pub level: f64,
+    /// `(difference, correct)` of each completed trial, in order.
+    pub answers: Vec<(f64, bool)>,
+}
+
+/// The tracks of a discrimination session's records (none for another
+/// kind's), by track index.
+#[must_use]
+pub fn tracks(history: &[TrialRecord]) -> Vec<TrackAnswers> {
+    let mut out: Vec<TrackAnswers> = Vec::new();
+    for r in history
+        .iter()
+        .filter(|r| !r.requeued && r.status == Status::Completed)
+    {
+        let TrialData::Discrimination(d) = &r.data else {
+            continue;
+        };
+        let Some(correct) = d.correct else {
+            continue;
+        };
+        if let Some(t) = out.iter_mut().find(|t| t.track == d.track) {
+            t.answers.push((d.difference, correct));
+        } else {
+            out.push(TrackAnswers {
+                track: d.track,
+                level: d.level,
+                answers: vec![(d.difference, correct)],
+            });
+        }
+    }
+    out.sort_by_key(|t| t.track);
+    out
+}
+
+/// The trials of a discrimination session: a pure function of the design,
+/// the plan seed and the logged answers.
+#[derive(Debug)]
+struct Source {
+    design: DiscriminationDesign,
+    seed: u64,
+}
+
+/// `SplitMix64` of the plan seed and a trial position: the trial's seed.
+fn trial_seed(seed: u64, index: usize) -> u64 {
+    let mut z = seed.wrapping_add((index as u64 + 1).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+impl TrialSource for Source {
+    fn trial(&self, index: usize, history: &[TrialRecord]) -> Option<PlannedTrial> {
+        let d = &self.design;
+        let tracks = replay(d, history);
+        let open: Vec<(usize, f64)> = tracks
+            .iter()
+            .enumerate()
+            .filter_map(|(i, t)| t.next().map(|x| (i, x)))
+            .collect();
+        if open.is_empty() {
+            return None;
+        }
+        let seed = trial_seed(self.seed, index);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let (track, difference) = open[rng.random_range(0..open.len())];
+        let level = d.levels[track];
+        let comparison_value = d.comparison.value(level, difference);
+        let with = |id: &str, value: f64| {
+            with_parameter(&d.reference, &d.parameter, value).map(|model| Condition {
+                id: id.into(),
+                model,
+            })
+        };
+        let (reference, comparison) = (with(REFERENCE, level)?, with(COMPARISON, comparison_value)?);
+        let (first, second) = if rng.random_bool(0.5) {
+            (comparison, reference)
+        } else {
+            (reference, comparison)
+        };
+        Some(PlannedTrial {
+            index,
+            block: "discrimination".into(),
+            block_index: 0,
+            practice: false,
+            repetition: 0,
+            seed,
+            spec: super::TrialSpec::Discrimination(DiscriminationTrial {
+                pair: PairedTrial {
+                    first,
+                    second,
+                    exploration_s: d.exploration_s,
+                },
+                question: d.question.clone(),
+                track,
+                level,
+                difference,
+                comparison_value,
+                state: tracks[track].state(),
+            }),
+        })
+    }
+
+    fn planned(&self) -> Option<usize> {
+        None
+    }
+
+    fn loop_rate_hz(&self) -> f64 {
+        self.design.reference.loop_rate_hz()
+    }
+}
