@@ -555,39 +555,3 @@ fn the_bootstrap_is_reproducible_from_its_seed_and_counts_failed_samples() {
         );
     }
 }
-
-/// Time per fit; run in release: `cargo test -p frictionlab-psychophysics
-/// --release --test fit -- --ignored --nocapture`.
-#[test]
-#[ignore = "a measurement, for release builds"]
-fn time_per_fit() {
-    let mut rng = ChaCha8Rng::seed_from_u64(8);
-    for (truth, _) in truths() {
-        for (levels, trials) in [(10_usize, 20), (20, 10), (40, 3)] {
-            let (lo, hi) = match truth.shape {
-                Shape::Weibull => (0.05_f64, 0.8_f64),
-                Shape::Logistic => (0.0, 1.05),
-                Shape::CumulativeNormal => (-1.2, 0.9),
-            };
-            let xs: Vec<f64> = (0..levels)
-                .map(|i| lo + (hi - lo) * i as f64 / (levels - 1) as f64)
-                .collect();
-            let sets: Vec<Vec<Block>> = (0..1000)
-                .map(|_| simulate(&truth, &xs, trials, &mut rng))
-                .collect();
-            let s = spec(truth.shape, 0.05);
-            let start = std::time::Instant::now();
-            let mut sum = 0.0;
-            for d in &sets {
-                sum += fit(&s, d).unwrap().params.threshold;
-            }
-            let per = start.elapsed().as_secs_f64() / sets.len() as f64;
-            eprintln!(
-                "{:?}, {levels} blocks of {trials} trials: {:.1} us per fit (mean threshold {:.3})",
-                truth.shape,
-                per * 1e6,
-                sum / sets.len() as f64
-            );
-        }
-    }
-}
