@@ -79,6 +79,17 @@ stroke
 click 1312 95
 participant participant-paired
 
+# Discrimination: the two intervals and the protocol's question, then ten
+# answers ("stimulus 2") and the experimenter's live plot of the tracks.
+session discrimination-quick.json
+click 1081 111
+stroke
+click 1312 95
+participant participant-discrimination
+for _ in $(seq 1 9); do click 1239 185 0.5; done
+click 1239 185 1.5
+both session-discrimination-tracks
+
 # Fitts (seed 2: the `real` condition follows the practice trial): a miss,
 # four hits, then the experimenter's prompt to attach the block.
 session fitts-quick.json 2

@@ -42,6 +42,16 @@ pub(super) fn show(ui: &mut egui::Ui, live: &LiveSession) {
         });
 }
 
+/// One colour per track, its line and its correct answers alike.
+const TRACK_COLOURS: [egui::Color32; 6] = [
+    egui::Color32::from_rgb(230, 120, 60),
+    egui::Color32::from_rgb(80, 170, 230),
+    egui::Color32::from_rgb(120, 200, 90),
+    egui::Color32::from_rgb(220, 90, 180),
+    egui::Color32::from_rgb(230, 200, 70),
+    egui::Color32::from_rgb(160, 140, 230),
+];
+
 /// A discrimination session's adaptive tracks: each reference level's
 /// difference, trial by trial, the answers marked (filled: correct).
 /// Nothing for other kinds, or before the first answer.
@@ -76,11 +86,13 @@ pub(super) fn tracks(ui: &mut egui::Ui, live: &LiveSession) {
                     .map(|(i, a)| at(i, a.0))
                     .collect();
                 let name = format!("level {}", t.level);
-                plot.line(Line::new(name.clone(), PlotPoints::from(line)));
+                let colour = TRACK_COLOURS[t.track % TRACK_COLOURS.len()];
+                plot.line(Line::new(name.clone(), PlotPoints::from(line)).color(colour));
                 plot.points(
                     Points::new(name, PlotPoints::from(correct))
                         .radius(3.0)
-                        .filled(true),
+                        .filled(true)
+                        .color(colour),
                 );
             }
         });
