@@ -458,8 +458,9 @@ fn a_discrimination_session_killed_and_resumed_gives_the_uninterrupted_files_iss
 type Edit = Box<dyn Fn(&mut serde_json::Value)>;
 
 /// Issue 17: a protocol naming a parameter the model lacks, a negative
-/// step, a reference outside the model's range, or a stopping rule that can
-/// never stop is refused with the JSON path of each problem, exit 2.
+/// step, a reference outside the model's range, a stopping rule that can
+/// never stop, or a bootstrap too long to finish is refused with the JSON
+/// path of each problem, exit 2.
 #[test]
 fn bad_discrimination_protocols_are_refused_at_their_json_paths_issue_17() {
     let base: serde_json::Value =
@@ -487,6 +488,11 @@ fn bad_discrimination_protocols_are_refused_at_their_json_paths_issue_17() {
                 v["design"]["method"]["stop_threshold_sd"] = (-0.1).into();
             }),
             "design.method.stop_threshold_sd:",
+        ),
+        (
+            "a bootstrap that would never end",
+            Box::new(|v| v["design"]["fit"]["bootstrap"] = 1_000_000_000.into()),
+            "design.fit.bootstrap: from 100 samples",
         ),
         (
             "a staircase without a stopping rule",

@@ -512,10 +512,13 @@ impl StudyKind for Discrimination {
                 ),
             );
         }
-        if d.fit.bootstrap < 100 {
+        if !(100..=MAX_BOOTSTRAP).contains(&d.fit.bootstrap) {
             c.err(
                 "fit.bootstrap",
-                format!("at least 100 samples for a 95% interval, got {}", d.fit.bootstrap),
+                format!(
+                    "from 100 samples (for a 95% interval) to {MAX_BOOTSTRAP} (each refits every track), got {}",
+                    d.fit.bootstrap
+                ),
             );
         }
         if parameter_value(&d.reference, &d.parameter).is_none() {
@@ -643,6 +646,10 @@ impl LiveTrial for Interval2 {
         }
     }
 }
+
+/// The most bootstrap samples a protocol may ask for: each refits every
+/// track (about 0.15 ms a fit), so 100,000 take 15 s a track.
+pub const MAX_BOOTSTRAP: u32 = 100_000;
 
 /// The comparison's condition id.
 pub const COMPARISON: &str = "comparison";
