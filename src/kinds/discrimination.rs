@@ -344,7 +344,7 @@ pub struct DiscriminationData {
 
 /// The live trial: a forced-choice comparison that remembers its track.
 #[derive(Debug, Clone)]
-pub struct Interval2 {
+pub struct TwoIntervals {
     compare: Compare,
     trial: DiscriminationTrial,
 }
@@ -418,7 +418,7 @@ fn method_range(method: &Method, c: &mut Checks) -> (f64, f64) {
 impl StudyKind for Discrimination {
     type Design = DiscriminationDesign;
     type Trial = DiscriminationTrial;
-    type Live = Interval2;
+    type Live = TwoIntervals;
     type Data = DiscriminationData;
 
     const COLUMNS: &'static [&'static str] = &[
@@ -592,8 +592,8 @@ impl StudyKind for Discrimination {
         Paired::loop_rate_hz(&t.pair)
     }
 
-    fn start(t: &DiscriminationTrial, now: f64, out: &mut VecDeque<Action>) -> Interval2 {
-        Interval2 {
+    fn start(t: &DiscriminationTrial, now: f64, out: &mut VecDeque<Action>) -> TwoIntervals {
+        TwoIntervals {
             compare: Compare::start(&t.pair, Some(t.question.clone()), now, out),
             trial: t.clone(),
         }
@@ -613,7 +613,7 @@ impl StudyKind for Discrimination {
     }
 }
 
-impl LiveTrial for Interval2 {
+impl LiveTrial for TwoIntervals {
     type Data = DiscriminationData;
 
     fn timeout(&self) -> Option<f64> {

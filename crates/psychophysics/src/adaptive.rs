@@ -1112,6 +1112,24 @@ mod tests {
         (q, answers)
     }
 
+    /// Every psychometric function of the grid, in the posterior's order
+    /// (threshold, then slope, then lapse).
+    fn grid_functions(spec: &QuestPlusSpec) -> impl Iterator<Item = Psychometric> + '_ {
+        spec.thresholds.iter().flat_map(move |&threshold| {
+            spec.slopes.iter().flat_map(move |&slope| {
+                spec.lapses.iter().map(move |&lapse| Psychometric {
+                    shape: spec.shape,
+                    params: Params {
+                        threshold,
+                        slope,
+                        lapse,
+                    },
+                    guess: spec.guess,
+                })
+            })
+        })
+    }
+
     /// The expected posterior entropy after a trial at each stimulus, the
     /// long way: both posteriors built, normalised and their entropies
     /// taken, with the likelihoods from `Psychometric::p_correct`.
@@ -1120,26 +1138,13 @@ mod tests {
         for &x in &spec.stimuli {
             let mut expected = 0.0;
             for correct in [true, false] {
-                let mut joint = Vec::new();
-                let mut k = 0;
-                for &threshold in &spec.thresholds {
-                    for &slope in &spec.slopes {
-                        for &lapse in &spec.lapses {
-                            let psi = Psychometric {
-                                shape: spec.shape,
-                                params: Params {
-                                    threshold,
-                                    slope,
-                                    lapse,
-                                },
-                                guess: spec.guess,
-                            };
-                            let pc = psi.p_correct(x);
-                            joint.push(posterior[k] * if correct { pc } else { 1.0 - pc });
-                            k += 1;
-                        }
-                    }
-                }
+                let joint: Vec<f64> = grid_functions(spec)
+                    .zip(posterior)
+                    .map(|(psi, w)| {
+                        let pc = psi.p_correct(x);
+                        w * if correct { pc } else { 1.0 - pc }
+                    })
+                    .collect();
                 let p_outcome: f64 = joint.iter().sum();
                 if p_outcome > 0.0 {
                     let h: f64 = joint
@@ -1216,24 +1221,9 @@ mod tests {
                 };
                 let correct = rng.random::<f64>() < observer.p_correct(x);
                 q.update(x, correct);
-                let mut k = 0;
-                for &threshold in &spec.thresholds {
-                    for &slope in &spec.slopes {
-                        for &lapse in &spec.lapses {
-                            let pc = Psychometric {
-                                shape: spec.shape,
-                                params: Params {
-                                    threshold,
-                                    slope,
-                                    lapse,
-                                },
-                                guess: spec.guess,
-                            }
-                            .p_correct(x);
-                            product[k] *= if correct { pc } else { 1.0 - pc };
-                            k += 1;
-                        }
-                    }
+                for (psi, p) in grid_functions(&spec).zip(&mut product) {
+                    let pc = psi.p_correct(x);
+                    *p *= if correct { pc } else { 1.0 - pc };
                 }
                 let total: f64 = product.iter().sum();
                 for (p, w) in product.iter().zip(q.posterior()) {
