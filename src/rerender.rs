@@ -11,12 +11,18 @@
 //! A stream starts when its trial does; the render in effect at its first
 //! row may have begun before (the previous trial's, fading out), in a state
 //! the stream does not show. So the replay starts at the first row marked
-//! `selected` whose render is a model (the trial's model starting), and
-//! the rows before it are counted as `skipped`. Every trial ends by
-//! rendering nothing, so a trial's first model starts from nothing (a
-//! select crossfades from the render in effect, which is nothing) and its
-//! state from there on is all in the stream. Every later `selected` row
-//! selects its render again, as the device did.
+//! `selected` whose render is a model and whose previous row rendered
+//! nothing (the trial's model starting), and the rows before it are
+//! counted as `skipped`. A select crossfades from the render in effect,
+//! which is then nothing, so the model's state from there on is all in
+//! the stream. Every later `selected` row selects its render again, as the
+//! device did.
+//!
+//! A select in a stream's first row is taken to start from nothing too, as
+//! every trial ends by rendering nothing. (On board, over a lagging link,
+//! the previous trial's selects can take effect after the next trial's
+//! stream has begun: hence the rule. One landing on the first row exactly
+//! would show as a difference, never pass unseen.)
 //!
 //! A select takes effect at its row, the model at rest at that row's
 //! position, as the haptic loop and the on-board `Board` do; on the
@@ -329,9 +335,13 @@ pub fn rerender(rows: &[Row], entries: &[RenderEntry]) -> Rerendered {
     let Some(first) = rows.first().and_then(|r| entries.get(r.render)) else {
         return out;
     };
-    let start = rows
-        .iter()
-        .position(|r| r.selected && entries.get(r.render).is_some_and(|e| e.model.is_some()))
+    let renders_nothing = |r: &Row| entries.get(r.render).is_some_and(|e| e.model.is_none());
+    let start = (0..rows.len())
+        .find(|&i| {
+            let r = &rows[i];
+            let after_nothing = i.checked_sub(1).is_none_or(|p| renders_nothing(&rows[p]));
+            r.selected && entries.get(r.render).is_some_and(|e| e.model.is_some()) && after_nothing
+        })
         .unwrap_or(rows.len());
     out.skipped = start;
     match first.float {

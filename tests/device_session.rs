@@ -671,3 +671,63 @@ fn a_trial_aborted_for_a_stalled_device_records_nothing_from_after_the_stall() {
     let report = frictionlab::rerender::rerender_file(&stream).unwrap();
     assert!(report.bit_exact, "{report:?}");
 }
+
+/// A link that delivers the host's messages 200 ms late (QEMU's UART on a
+/// loaded 2-core machine lagged so): the host resends a select its device
+/// has not yet shown in effect, and those resends arrive after the select
+/// itself, some in the next trial. A resend must not restart the model in
+/// effect, and every stream must still re-render bit for bit. (The
+/// fresh-clone CI once saw 0.45 N on QEMU: a stale resend restarted the
+/// previous trial's model at the start of the next trial's stream.)
+#[test]
+fn resends_over_a_lagging_link_restart_nothing_and_rerender_bit_exact() {
+    let dir = tempfile::tempdir().unwrap();
+    let dev = dir.path().join("dev");
+    let emu = common::emulator_with(&dev, &["--on-board", "--link-delay-ms", "200"]);
+    let out = dir.path().join("results");
+    let o = run("magnitude-quick", &out, &dev, &[])
+        .wait_with_output()
+        .unwrap();
+    unplug(emu, &dev);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let log = read_log(&log_of(&out, "magnitude-quick")).unwrap();
+    assert_eq!(common::completed_trials(&log), (0..6).collect::<Vec<_>>());
+
+    let r = common::rerender_all(&out);
+    assert_eq!(r.modes, ["on_board"]);
+    for x in &r.reports {
+        assert_eq!(x["bit_exact"], true, "{x}");
+        assert!(x["restarted_row"].is_null(), "{x}");
+    }
+    assert!(r.rows > 20_000, "{} rows re-rendered", r.rows);
+    // Each presentation's stream against its record (trial k, run r: the
+    // r-th record of trial k).
+    let mut selects = 0;
+    for (i, record) in log.trials.iter().enumerate() {
+        let run = log.trials[..=i]
+            .iter()
+            .filter(|r| r.trial == record.trial)
+            .count();
+        let path = out.join(format!(
+            "streams/study-magnitudequick_subject-dev_session-1_trial-{}_run-{run}_stream.csv",
+            record.trial
+        ));
+        let text = std::fs::read_to_string(&path).unwrap();
+        let rows = frictionlab::rerender::parse_stream("stream", &text).unwrap();
+        for w in rows.windows(2).filter(|w| w[1].selected) {
+            selects += 1;
+            // (A device that a late `Hello` started afresh while connecting
+            // takes a clear again: nothing restarts.)
+            assert!(
+                w[1].render != w[0].render || record.rendering[w[1].render].model.is_none(),
+                "{}: the model in effect selected again at t = {} s (a resend restarted it)",
+                path.display(),
+                w[1].t_s
+            );
+        }
+    }
+    assert!(
+        selects >= 12,
+        "{selects} selects: a clear and a model per trial"
+    );
+}

@@ -169,6 +169,16 @@ mod on_board {
     /// telemetry as a stream row. The host knows label 1 as its render 0;
     /// any other label is render 1.
     pub fn tick_row(board: &mut Board<f32>, k: u32, w: f64) -> Row {
+        tick_row_as(board, k, w, |label| usize::from(label != 1))
+    }
+
+    /// [`tick_row`] with the host's render for each label.
+    pub fn tick_row_as(
+        board: &mut Board<f32>,
+        k: u32,
+        w: f64,
+        render_of: impl Fn(u8) -> usize,
+    ) -> Row {
         let t = f64::from(k) / f64::from(RATE_HZ);
         #[expect(clippy::cast_possible_truncation, reason = "the device's f32")]
         let input = Input {
@@ -193,7 +203,7 @@ mod on_board {
             v_m_s: f64::from(v_m_s),
             force_n: f64::from(force_n),
             vibration: f64::from(vibration),
-            render: usize::from(render != 1),
+            render: render_of(render),
             selected: flags & status::SELECTED != 0,
             watchdog: flags & status::WATCHDOG != 0,
             tick: Some(tick),
@@ -215,8 +225,9 @@ mod on_board {
 
 /// A device rendering on board keeps stepping its model while its watchdog
 /// holds the output at 0 (the host silent for 20 ms, as a stalled link
-/// under load can be), and re-selects a model the host sends again. Its
-/// stream, with both marked, re-renders exactly; with the watchdog marks
+/// under load can be), and takes a model the host sends again for the
+/// resend it is (no restart). Its stream, with the watchdog marked,
+/// re-renders exactly; with the watchdog marks
 /// removed it does not, so the marks are what make the audit exact. With
 /// telemetry lost, the replay is exact up to the loss and stops there.
 #[test]
@@ -249,8 +260,8 @@ fn an_on_board_stream_with_a_tripped_watchdog_a_resent_model_and_lost_telemetry_
     let entries = [entry(Some(model.clone()))];
     assert_eq!(
         rows.iter().filter(|r| r.selected).count(),
-        2,
-        "select, resend"
+        1,
+        "the select; the resend restarts nothing"
     );
     let r = rerender(&rows, &entries);
     assert!(r.bit_exact, "{r:?}");
@@ -340,4 +351,59 @@ fn an_on_board_stream_of_a_device_started_afresh_re_renders_exactly_up_to_the_re
         (Some(2500), 1500, 0),
         "{r:?}"
     );
+}
+
+/// Over a lagging link the previous trial's selects can take effect after
+/// the next trial's stream has begun: here a paired trial's second model,
+/// crossfading from its first, in a state the stream does not show. The
+/// replay starts at the trial's own model, selected after the clear, and
+/// is exact from there.
+#[test]
+fn an_on_board_stream_opening_with_the_previous_trials_late_select_re_renders_exactly_from_its_own_model()
+ {
+    use frictionlab::friction::{ForceLimit, ModelParams};
+    use frictionlab::rerender::rerender;
+    use frictionlab_core::onboard::{Board, upload};
+    use frictionlab_core::wire::Message;
+    use on_board::{RATE_HZ, entry, tick_row_as};
+
+    let first = ModelParams::default_for("karnopp").unwrap();
+    let second = ModelParams::default_for("god-object-constant").unwrap();
+    let own = ModelParams::default_for("stick-slip-force").unwrap();
+    let mut board = Board::<f32>::new(RATE_HZ, ForceLimit::new(8.0).unwrap());
+    upload(&first, 1, |m| board.receive(&m));
+    // Labels 1 to 4 are the trial's renders 0 to 3.
+    let render_of = |label: u8| usize::from(label) - 1;
+    let mut rows = Vec::new();
+    for k in 0..6000_u32 {
+        board.receive(&Message::Heartbeat { seq: k });
+        match k {
+            1200 => upload(&second, 2, |m| board.receive(&m)),
+            1500 => board.receive(&Message::Clear { render: 3 }),
+            1600 => upload(&own, 4, |m| board.receive(&m)),
+            _ => {}
+        }
+        let row = tick_row_as(&mut board, k, 2.0 * std::f64::consts::PI, render_of);
+        // The trial's stream begins at tick 1000.
+        if k >= 1000 {
+            rows.push(row);
+        }
+    }
+    let entries = [
+        entry(Some(first)),
+        entry(Some(second)),
+        entry(None),
+        entry(Some(own)),
+    ];
+    let r = rerender(&rows, &entries);
+    assert!(r.bit_exact, "{r:?}");
+    assert_eq!((r.skipped, r.unreplayed_rows), (600, 0), "{r:?}");
+    assert!(r.restarted_row.is_none(), "{r:?}");
+    // A stream opening exactly at the late select is replayed from it, as
+    // from nothing: the difference shows (the first model's state, which
+    // the second crossfades from, is not in the stream); it never passes
+    // unseen.
+    let late = rerender(&rows[200..], &entries);
+    assert_eq!(late.skipped, 0, "{late:?}");
+    assert!(!late.bit_exact && late.max_force_diff_n > 0.1, "{late:?}");
 }

@@ -193,7 +193,11 @@ pub(super) fn ports_command() -> Result<(), Failure> {
     emit(&lines)
 }
 
-pub(super) fn emulator_command(path: &Path, on_board: bool) -> Result<(), Failure> {
+pub(super) fn emulator_command(
+    path: &Path,
+    on_board: bool,
+    link_delay_ms: u16,
+) -> Result<(), Failure> {
     use crate::device::emulator::{self, Endpoint, OpenError};
     let place = path.display().to_string();
     let mut emulator = emulator::open(path).map_err(|e| match e {
@@ -222,7 +226,11 @@ pub(super) fn emulator_command(path: &Path, on_board: bool) -> Result<(), Failur
         emulator::EmulatorCore::new()
     };
     emulator
-        .serve(core, |_| {})
+        .serve(
+            core,
+            std::time::Duration::from_millis(link_delay_ms.into()),
+            |_| {},
+        )
         .map_err(|e| device_failure(&place, e.to_string()))
 }
 

@@ -129,6 +129,11 @@ enum Command {
         /// that applies the host's force commands.
         #[arg(long)]
         on_board: bool,
+        /// Delivers what the host sends this many milliseconds late, in
+        /// order: a backed-up link, as QEMU's UART on a loaded machine (to
+        /// test how a host copes).
+        #[arg(long, value_name = "MS", default_value_t = 0, value_parser = clap::value_parser!(u16).range(0..=10_000))]
+        link_delay_ms: u16,
     },
     /// Boots the firmware (`firmware/`) in QEMU's mps2-an386 and prints the
     /// pseudo-terminal its UART is on, for `run --device PATH`; runs until
@@ -325,7 +330,11 @@ pub fn main() -> ExitCode {
         } => claims_command(&dir, &fitts_protocol),
         Command::Identify(args) => identify_command(&args),
         Command::Ports => ports_command(),
-        Command::DeviceEmulator { path, on_board } => emulator_command(&path, on_board),
+        Command::DeviceEmulator {
+            path,
+            on_board,
+            link_delay_ms,
+        } => emulator_command(&path, on_board, link_delay_ms),
         Command::FirmwareQemu { elf, link } => firmware_qemu_command(&elf, link.as_deref()),
         Command::Schema { which } => emit(&if which == "log" {
             crate::results::log_json_schema()

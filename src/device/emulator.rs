@@ -22,6 +22,7 @@
 //! any port) runs the core at the force loop rate, dropping any frame the
 //! port cannot take at once.
 
+use std::collections::VecDeque;
 use std::io::{ErrorKind, Read, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -302,17 +303,23 @@ impl EmulatorCore {
 /// short by a full buffer is dropped by the host's decoder too). Only other
 /// errors end it.
 ///
+/// With a `link_delay`, what the host sends reaches the device that much
+/// later, in order: a backed-up link, as QEMU's UART on a loaded machine
+/// (a way to test how a host copes).
+///
 /// # Errors
 /// An I/O error on the port.
 pub fn serve(
     port: &mut (impl Read + Write),
     core: EmulatorCore,
+    link_delay: Duration,
     mut on_tick: impl FnMut(&EmulatorCore),
 ) -> std::io::Result<()> {
     let mut core = core;
     let mut decoder = Decoder::new();
     let mut input = [0_u8; 512];
     let mut out = [0_u8; MAX_FRAME];
+    let mut in_flight: VecDeque<(Instant, Vec<u8>)> = VecDeque::new();
     let start = Instant::now();
     let mut ticks = 0_u64;
     loop {
@@ -322,7 +329,17 @@ pub fn serve(
             Err(e) => return Err(e),
         };
         let mut replies = Vec::new();
-        decoder.feed(&input[..n], |m| replies.extend(core.receive(m)));
+        if link_delay.is_zero() {
+            decoder.feed(&input[..n], |m| replies.extend(core.receive(m)));
+        } else {
+            let now = Instant::now();
+            if n > 0 {
+                in_flight.push_back((now + link_delay, input[..n].to_vec()));
+            }
+            while let Some((_, bytes)) = in_flight.pop_front_if(|(due, _)| *due <= now) {
+                decoder.feed(&bytes, |m| replies.extend(core.receive(m)));
+            }
+        }
         // Every tick due by now (one a wake-up at 1 kHz, five on board).
         let dt = 1.0 / f64::from(core.rate_hz());
         let elapsed = start.elapsed().as_secs_f64();
@@ -456,9 +473,10 @@ impl Emulator {
     pub fn serve(
         &mut self,
         core: EmulatorCore,
+        link_delay: Duration,
         on_tick: impl FnMut(&EmulatorCore),
     ) -> std::io::Result<()> {
-        serve(&mut self.port, core, on_tick)
+        serve(&mut self.port, core, link_delay, on_tick)
     }
 }
 
@@ -678,7 +696,7 @@ mod tests {
         reads.extend((0..20).map(|_| Err(ErrorKind::TimedOut.into())));
         let mut port = FullPort { reads, writes: 0 };
         let mut served = 0;
-        let e = serve(&mut port, EmulatorCore::new(), |core| {
+        let e = serve(&mut port, EmulatorCore::new(), Duration::ZERO, |core| {
             served += usize::from(core.has_host());
         })
         .unwrap_err();

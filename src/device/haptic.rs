@@ -47,8 +47,13 @@ pub use frictionlab_core::render::RAMP_S;
 pub const UNKNOWN_RENDER: u32 = u32::MAX;
 
 /// How long the loop waits for telemetry to show a selected model before it
-/// uploads it again, s.
+/// uploads it again, s; each further resend of the same render waits twice
+/// as long, up to 8 times this (a slow link is not flooded with copies).
 const RESEND_AFTER_S: f64 = 0.050;
+
+/// How many labels the loop remembers: renders sent while the device has
+/// not yet caught up (a lagging link) keep their meaning.
+const LABELS: usize = 16;
 
 /// From the session to the loop.
 #[derive(Debug, Clone, PartialEq)]
@@ -245,8 +250,11 @@ struct OnBoardState {
     /// The session's render to render, and whether the device renders it.
     wanted: (u32, Option<ModelParams>),
     rendering: bool,
-    /// Labels sent lately and the renders they stand for.
-    labels: [(u8, u32); 4],
+    /// Labels sent lately and the renders they stand for, newest first
+    /// (a resend is not a new label).
+    labels: [(u8, u32); LABELS],
+    /// Resends of the wanted render so far.
+    resends: u32,
     /// The render whose telemetry shows in effect on the device.
     device_render: u32,
     /// When the wanted render was last sent, if not yet in effect.
@@ -265,7 +273,8 @@ impl OnBoardState {
         OnBoardState {
             wanted: (0, None),
             rendering: false,
-            labels: [(0, UNKNOWN_RENDER); 4],
+            labels: [(0, UNKNOWN_RENDER); LABELS],
+            resends: 0,
             device_render: UNKNOWN_RENDER,
             sent_s: None,
             anchor: None,
@@ -294,8 +303,13 @@ impl OnBoardState {
     fn send(&mut self, now_s: f64, model: Option<&ModelParams>, mut send: impl FnMut(Message)) {
         let render = self.wanted.0;
         let label = render as u8;
-        self.labels.rotate_right(1);
-        self.labels[0] = (label, render);
+        if self.labels[0] == (label, render) {
+            self.resends += 1;
+        } else {
+            self.labels.rotate_right(1);
+            self.labels[0] = (label, render);
+            self.resends = 0;
+        }
         match model {
             Some(m) => frictionlab_core::onboard::upload(m, label, &mut send),
             None => send(Message::Clear { render: label }),
@@ -331,9 +345,14 @@ impl OnBoardState {
         at
     }
 
+    /// How long after the last send of the wanted render to resend it, s.
+    fn resend_after(&self) -> f64 {
+        RESEND_AFTER_S * f64::from(1_u32 << self.resends.min(3))
+    }
+
     /// Forgets the device's state (a new connection).
     fn disconnected(&mut self) {
-        self.labels = [(0, UNKNOWN_RENDER); 4];
+        self.labels = [(0, UNKNOWN_RENDER); LABELS];
         self.device_render = UNKNOWN_RENDER;
         self.anchor = None;
         self.last_tick = None;
@@ -501,7 +520,11 @@ fn run(
             }
             // Resend only after this tick's telemetry is seen: after a stall
             // it may already show the select in effect.
-            if connected && board.sent_s.is_some_and(|t| now - t >= RESEND_AFTER_S) {
+            if connected
+                && board
+                    .sent_s
+                    .is_some_and(|t| now - t >= board.resend_after())
+            {
                 let wanted = board.wanted.1.clone();
                 board.send(now, wanted.as_ref(), &mut write);
                 sent = true;
@@ -590,5 +613,54 @@ fn run(
         telemetry_gaps: (board.ticks > 0).then_some(board.gaps),
         device_longest_loop_us: (board.ticks > 0).then(|| link.device_loop().longest_loop_us),
         device_missed_ticks: (board.ticks > 0).then(|| link.device_loop().missed_ticks),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn telemetry(tick: u32, render: u8) -> Telemetry {
+        Telemetry {
+            tick,
+            x_m: 0.0,
+            v_m_s: 0.0,
+            force_n: 0.0,
+            vibration: 0.0,
+            render,
+            flags: 0,
+        }
+    }
+
+    /// Over a link that lags (QEMU's UART on a loaded machine lagged
+    /// 200 ms), the loop resends a render the device has not yet shown in
+    /// effect: ever less often, and without forgetting what the labels
+    /// sent before it stand for.
+    #[test]
+    fn resends_back_off_and_keep_the_labels_sent_before() {
+        let mut board = OnBoardState::new();
+        let model = ModelParams::default_for("karnopp").unwrap();
+        let mut sent = 0;
+        board.wanted = (18, Some(model.clone()));
+        board.send(0.0, Some(&model), |_| sent += 1);
+        board.wanted = (19, None);
+        board.send(0.01, None, |_| sent += 1);
+        let mut waits = Vec::new();
+        for k in 0..6 {
+            waits.push(board.resend_after());
+            board.send(0.1 * f64::from(k), None, |_| sent += 1);
+        }
+        assert_eq!(waits, [0.05, 0.1, 0.2, 0.4, 0.4, 0.4]);
+        assert!(sent > 7);
+        // The device still shows label 18, then takes 19.
+        board.observe(&telemetry(1, 18), 0.6, 0.0002);
+        assert_eq!(board.device_render, 18, "label 18 still means render 18");
+        assert!(board.sent_s.is_some(), "19 not in effect yet");
+        board.observe(&telemetry(2, 19), 0.6, 0.0002);
+        assert_eq!((board.device_render, board.sent_s), (19, None));
+        // A new render starts the backoff afresh.
+        board.wanted = (20, None);
+        board.send(0.7, None, |_| {});
+        assert_eq!(board.resend_after(), 0.05);
     }
 }

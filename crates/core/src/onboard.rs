@@ -9,6 +9,11 @@
 //!   is built (a lost or corrupted part is refused, never rendered);
 //! - the [`Renderer`] (50 ms crossfade, force clamp), a new model starting
 //!   at the tick after its `Select`, at that tick's position;
+//! - selects in the order they came, one a tick (each tick's telemetry
+//!   shows the render it put in effect), up to [`PENDING_SELECTS`] waiting;
+//! - resends taken for what they are: a `Select` of the model in effect
+//!   under its label (or a `Clear` of the nothing in effect) changes
+//!   nothing, so a host resending over a slow link restarts no model;
 //! - the force-only path: with no on-board model, the last `Command`'s
 //!   force (v1 behaviour);
 //! - the 20 ms watchdog, in both modes: no valid frame from the host for
@@ -37,7 +42,11 @@ pub struct Drive<T> {
     pub telemetry: Option<Message>,
 }
 
-/// A select waiting for the next tick.
+/// Selects that can wait for their tick; a further one drops the oldest
+/// (the host resends what it does not see in effect).
+pub const PENDING_SELECTS: usize = 4;
+
+/// A select waiting for its tick.
 #[derive(Debug, Clone, Copy)]
 enum Pending {
     Model { render: u8, flat: Flat },
@@ -57,7 +66,12 @@ pub struct Board<T: Real> {
     staged_kind: u8,
     staged: [f64; MAX_VALUES],
     staged_mask: u32,
-    pending: Option<Pending>,
+    /// Selects waiting: a ring of `pending_len` from `pending_head`.
+    pending: [Pending; PENDING_SELECTS],
+    pending_head: usize,
+    pending_len: usize,
+    /// The model in effect (None: nothing, or a refused select).
+    in_effect: Option<Flat>,
     render: u8,
     refused: bool,
     command: T,
@@ -86,7 +100,10 @@ impl<T: Real> Board<T> {
             staged_kind: 0,
             staged: [0.0; MAX_VALUES],
             staged_mask: 0,
-            pending: None,
+            pending: [Pending::Refused; PENDING_SELECTS],
+            pending_head: 0,
+            pending_len: 0,
+            in_effect: None,
             render: 0,
             refused: false,
             command: T::ZERO,
@@ -173,7 +190,7 @@ impl<T: Real> Board<T> {
                 let n = usize::from(count);
                 let complete = n <= MAX_VALUES && self.staged_mask & ((1 << n) - 1) == (1 << n) - 1;
                 let values = self.staged.get(..n).unwrap_or(&[]);
-                self.pending = Some(
+                self.queue(
                     if kind == self.staged_kind && complete && values_check(values) == check {
                         let mut flat = Flat {
                             kind,
@@ -187,13 +204,34 @@ impl<T: Real> Board<T> {
                     },
                 );
             }
-            Message::Clear { render } => self.pending = Some(Pending::Clear { render }),
+            Message::Clear { render } => self.queue(Pending::Clear { render }),
             Message::SetTelemetry { every } => {
                 self.every = every;
                 self.countdown = 0;
             }
             _ => {}
         }
+    }
+
+    /// Queues a select for its tick, dropping the oldest if full.
+    fn queue(&mut self, pending: Pending) {
+        if self.pending_len == PENDING_SELECTS {
+            self.pending_head = (self.pending_head + 1) % PENDING_SELECTS;
+            self.pending_len -= 1;
+        }
+        self.pending[(self.pending_head + self.pending_len) % PENDING_SELECTS] = pending;
+        self.pending_len += 1;
+    }
+
+    /// The next select waiting, if any.
+    fn next_pending(&mut self) -> Option<Pending> {
+        if self.pending_len == 0 {
+            return None;
+        }
+        let next = self.pending[self.pending_head];
+        self.pending_head = (self.pending_head + 1) % PENDING_SELECTS;
+        self.pending_len -= 1;
+        Some(next)
     }
 
     /// Notes how long this tick's loop body took and whether its deadline
@@ -213,17 +251,17 @@ impl<T: Real> Board<T> {
         }
     }
 
-    /// One loop tick at the sensed `input`: applies a pending select, steps
-    /// the renderer, applies the watchdog, and returns the output.
+    /// One loop tick at the sensed `input`: applies the next pending select,
+    /// steps the renderer, applies the watchdog, and returns the output.
     pub fn tick(&mut self, input: Input<T>, button: bool, end_stop: bool) -> Drive<T> {
-        // A refused select changes nothing the device renders: it is not
-        // marked selected (a re-render would restart the model).
-        let selected = matches!(
-            self.pending,
-            Some(Pending::Model { .. } | Pending::Clear { .. })
-        );
-        match self.pending.take() {
-            Some(Pending::Model { render, flat }) => {
+        // Only a select that changes what the device renders is marked
+        // selected (a re-render restarts the model there): not a refused
+        // one, nor a resend of what is in effect.
+        let mut selected = false;
+        match self.next_pending() {
+            Some(Pending::Model { render, flat })
+                if !(render == self.render && self.in_effect == Some(flat)) =>
+            {
                 let params = ModelParams::unflatten(flat.kind, flat.used());
                 self.refused =
                     !(params.is_some() && self.renderer.select(params.as_ref(), input.x_m));
@@ -231,16 +269,22 @@ impl<T: Real> Board<T> {
                     self.renderer.select(None, input.x_m);
                 }
                 self.has_model = !self.refused;
+                self.in_effect = self.has_model.then_some(flat);
                 self.render = render;
+                selected = true;
             }
-            Some(Pending::Clear { render }) => {
+            Some(Pending::Clear { render })
+                if !(render == self.render && !self.has_model && !self.refused) =>
+            {
                 self.renderer.select(None, input.x_m);
                 self.has_model = false;
+                self.in_effect = None;
                 self.refused = false;
                 self.render = render;
+                selected = true;
             }
             Some(Pending::Refused) => self.refused = true,
-            None => {}
+            Some(Pending::Model { .. } | Pending::Clear { .. }) | None => {}
         }
         let out = self.renderer.step(self.dt, input);
         let watchdog = self.quiet_ticks > self.watchdog_ticks;
@@ -487,6 +531,88 @@ mod tests {
             };
             assert_eq!(render, 7);
         }
+    }
+
+    /// The render label and whether a select took effect, of a tick.
+    fn shown(d: &Drive<f32>) -> (u8, bool) {
+        match d.telemetry {
+            Some(Message::Telemetry { render, flags, .. }) => {
+                (render, flags & status::SELECTED != 0)
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_resend_of_the_model_in_effect_restarts_nothing() {
+        let params = ModelParams::default_for("stick-slip-tactile").unwrap();
+        let mut resent = Board::<f32>::new(5000, ForceLimit::default());
+        let mut once = Board::<f32>::new(5000, ForceLimit::default());
+        upload(&params, 3, |m| resent.receive(&m));
+        upload(&params, 3, |m| once.receive(&m));
+        for k in 0..3000_u16 {
+            // Resent (a slow link) 100 and 200 ms in.
+            if k == 500 || k == 1000 {
+                upload(&params, 3, |m| resent.receive(&m));
+            }
+            let i = input(0.0001 * f32::from(k % 400), 0.05);
+            let (a, b) = (resent.tick(i, false, false), once.tick(i, false, false));
+            assert_eq!(a.force_n.to_bits(), b.force_n.to_bits(), "tick {k}");
+            assert_eq!(shown(&a), (3, k == 0), "tick {k}");
+        }
+        // The same model under a new label is a new render: selected.
+        upload(&params, 4, |m| resent.receive(&m));
+        assert_eq!(
+            shown(&resent.tick(input(0.0, 0.0), false, false)),
+            (4, true)
+        );
+        // A clear of the nothing in effect changes nothing either.
+        resent.receive(&Message::Clear { render: 5 });
+        assert_eq!(
+            shown(&resent.tick(input(0.0, 0.0), false, false)),
+            (5, true)
+        );
+        resent.receive(&Message::Clear { render: 5 });
+        assert_eq!(
+            shown(&resent.tick(input(0.0, 0.0), false, false)),
+            (5, false)
+        );
+    }
+
+    #[test]
+    fn selects_arriving_together_take_effect_one_a_tick_in_order() {
+        let params = ModelParams::default_for("karnopp").unwrap();
+        let mut board = Board::<f32>::new(5000, ForceLimit::default());
+        upload(&params, 1, |m| board.receive(&m));
+        for _ in 0..300 {
+            board.tick(input(0.01, 0.1), false, false);
+        }
+        // A clear and a new model in one read of the link.
+        board.receive(&Message::Clear { render: 2 });
+        upload(&params, 3, |m| board.receive(&m));
+        let mut renderer = Renderer::<f32>::new(ForceLimit::default(), f32::of(RAMP_S));
+        let a = board.tick(input(0.01, 0.1), false, false);
+        assert_eq!(shown(&a), (2, true));
+        renderer.select(Some(&params), 0.01);
+        for k in 0..400 {
+            board.receive(&Message::Heartbeat { seq: k });
+            let d = board.tick(input(0.01, 0.1), false, false);
+            assert_eq!(shown(&d), (3, k == 0), "tick {k}");
+            let r = renderer.step(board.dt(), input(0.01, 0.1));
+            // The model starts from the nothing the clear left, not from
+            // the model before it.
+            assert_eq!(d.force_n.to_bits(), r.force_n.to_bits(), "tick {k}");
+        }
+        // Six selects, four can wait: the oldest two are dropped.
+        for render in 10..=15 {
+            board.receive(&Message::Clear { render });
+        }
+        let labels: [(u8, bool); PENDING_SELECTS + 1] =
+            core::array::from_fn(|_| shown(&board.tick(input(0.0, 0.0), false, false)));
+        assert_eq!(
+            labels,
+            [(12, true), (13, true), (14, true), (15, true), (15, false)]
+        );
     }
 
     #[test]
