@@ -239,9 +239,12 @@ fn median(v: &[f64]) -> f64 {
 
 /// Median bias under `max_bias`, and 95% intervals covering the truth in
 /// at least 60% of the participants. The coverage is reported: it falls
-/// short of 95% (0.72-0.88 measured), because the parametric bootstrap
-/// redraws answers at the differences the adaptive track presented, which
-/// leaves out how the track itself would have wandered.
+/// short of 95% (0.68-0.88 measured). The parametric bootstrap redraws
+/// answers at the differences the adaptive track presented, which leaves
+/// out how the track itself would have wandered; re-running the track in
+/// the bootstrap raised QUEST+ to 0.92 but lowered the staircases to
+/// 0.58-0.60, and Efron's bias-corrected percentiles changed little
+/// (0.68-0.86), so neither is used.
 fn assert_recovered(name: &str, r: &Recovery, max_bias: f64) {
     let bias = median(&r.weber) / r.truth - 1.0;
     #[expect(clippy::cast_precision_loss, reason = "participant counts")]
@@ -302,13 +305,22 @@ fn each_method_recovers_a_known_threshold_and_quest_plus_needs_fewer_trials_issu
     assert_recovered("QUEST+ (60 trials)", &quest, 0.10);
     let two = recover(staircase(2, 80), truth);
     assert_recovered("1-up-2-down (80 trials)", &two, 0.10);
-    // 1-up-3-down misses the 10%: +13.3% at 80 trials (+10.6% at
-    // 120). It gathers its answers near 79% correct, where the Weibull
-    // differs most from this participant's own function (a cumulative
-    // normal of the log strength ratio), and the threshold is read at 75%.
-    // The bound here holds the measured bias, not the goal.
+    // Kaernbach's weighted 1-up-1-down, aimed at the 75% criterion.
+    let mut weighted = staircase(1, 80);
+    weighted["target"] = 0.75.into();
+    let weighted = recover(weighted, truth);
+    assert_recovered("weighted 1-up-1-down at 75% (80 trials)", &weighted, 0.10);
+    // 1-up-3-down misses the 10% at 80 trials: +13.3% (the bound
+    // here holds the measured bias, not the goal). Its answers gather near
+    // 79% correct with few at high performance, so the free lapse (up to
+    // 0.06) trades off against the threshold: with the lapse fixed at 0 the
+    // bias is +7.4%; with a logistic or cumulative normal instead of the
+    // Weibull it is +13.1% (measured once, not asserted). It shrinks with
+    // trials: +10.6% at 120, +8.4% at 160, +7.0% at 240.
     let three = recover(staircase(3, 80), truth);
     assert_recovered("1-up-3-down (80 trials)", &three, 0.15);
+    let longer = recover(staircase(3, 160), truth);
+    assert_recovered("1-up-3-down (160 trials)", &longer, 0.10);
 
     let (p, _) = one_level(quest_plus(60));
     let d = design(&p);
