@@ -8,6 +8,8 @@
     reason = "a failed unwrap is a failed test"
 )]
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
@@ -93,12 +95,7 @@ fn true_threshold(p: &Protocol, bytes: &[u8], pop: &Population, sigma: f64) -> f
         jobs: 1,
     };
     simulate_participants(&results, &sim, &|_| {}).unwrap();
-    let log = std::fs::read_dir(dir.path().join("logs"))
-        .unwrap()
-        .next()
-        .unwrap()
-        .unwrap()
-        .path();
+    let [log]: [PathBuf; 1] = common::session_logs(dir.path()).try_into().unwrap();
     let traits = frictionlab::participant::Traits::draw(99, "sim-001", pop);
     let mut points: Vec<(f64, f64)> = Vec::new();
     for r in read_log(&log).unwrap().trials {
@@ -201,12 +198,7 @@ fn recover(method: serde_json::Value, truth: f64) -> Recovery {
         }
     }
     let mut answers = Vec::new();
-    let mut logs: Vec<PathBuf> = std::fs::read_dir(dir.path().join("logs"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .collect();
-    logs.sort();
-    for log in logs {
+    for log in common::session_logs(dir.path()) {
         let read = read_log(&log).unwrap();
         answers.push(
             read.trials

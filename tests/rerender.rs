@@ -7,6 +7,8 @@
     reason = "a failed unwrap is a failed test"
 )]
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -117,12 +119,7 @@ fn a_damaged_stream_or_one_without_its_log_is_refused_with_its_place() {
 fn a_stream_without_rows_re_renders_as_nothing_to_replay() {
     let dir = tempfile::tempdir().unwrap();
     let stream = a_recorded_stream(dir.path());
-    let log = std::fs::read_dir(dir.path().join("logs"))
-        .unwrap()
-        .next()
-        .unwrap()
-        .unwrap()
-        .path();
+    let [log]: [PathBuf; 1] = common::session_logs(dir.path()).try_into().unwrap();
     let lines: Vec<String> = std::fs::read_to_string(&log)
         .unwrap()
         .lines()

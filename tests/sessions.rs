@@ -11,6 +11,8 @@
     reason = "index and rounding arithmetic on small, known, non-negative test values"
 )]
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::Duration;
@@ -152,12 +154,7 @@ fn the_same_seed_gives_byte_identical_data_for_any_jobs_and_different_seeds_diff
     // Data, logs and the dataset description.
     let read = |d: &tempfile::TempDir| {
         let mut files = csvs(d.path());
-        let mut logs: Vec<PathBuf> = std::fs::read_dir(d.path().join("logs"))
-            .unwrap()
-            .map(|e| e.unwrap().path())
-            .collect();
-        logs.sort();
-        files.extend(logs);
+        files.extend(common::session_logs(d.path()));
         files.push(d.path().join("dataset_description.json"));
         assert_eq!(files.len(), 7);
         files

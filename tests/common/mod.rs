@@ -189,3 +189,13 @@ pub fn rerender_all(out: &std::path::Path) -> Rerenders {
     }
     all
 }
+
+/// The session logs of a results folder, sorted by name.
+pub fn session_logs(results: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut logs: Vec<std::path::PathBuf> = std::fs::read_dir(results.join("logs"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    logs.sort();
+    logs
+}
