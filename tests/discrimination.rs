@@ -150,7 +150,10 @@ fn true_threshold(p: &Protocol, bytes: &[u8], pop: &Population, sigma: f64) -> f
 struct Recovery {
     truth: f64,
     weber: Vec<f64>,
+    /// Participants whose bootstrap interval covers the truth.
     covered: usize,
+    /// Participants whose profile-likelihood interval covers it.
+    covered_profile: usize,
     /// Each participant's answers, for the efficiency comparison.
     answers: Vec<Vec<(f64, bool)>>,
 }
@@ -188,14 +191,18 @@ fn recover(method: serde_json::Value, truth: f64) -> Recovery {
         .unwrap();
     assert_eq!(fits.len(), PARTICIPANTS as usize);
     let mut weber = Vec::new();
-    let mut covered = 0;
+    let (mut covered, mut covered_profile) = (0, 0);
+    let covers = |ci: &serde_json::Value| {
+        ci.as_array().is_some_and(|ci| {
+            let (lo, hi) = (ci[0].as_f64().unwrap(), ci[1].as_f64().unwrap());
+            lo <= truth && truth <= hi
+        })
+    };
     for f in fits {
         let w = f["weber"].as_f64().unwrap_or(f64::NAN);
         weber.push(w);
-        if let Some(ci) = f["weber_ci"].as_array() {
-            let (lo, hi) = (ci[0].as_f64().unwrap(), ci[1].as_f64().unwrap());
-            covered += usize::from(lo <= truth && truth <= hi);
-        }
+        covered += usize::from(covers(&f["weber_ci"]));
+        covered_profile += usize::from(covers(&f["weber_ci_profile"]));
     }
     let mut answers = Vec::new();
     for log in common::session_logs(dir.path()) {
@@ -214,6 +221,7 @@ fn recover(method: serde_json::Value, truth: f64) -> Recovery {
         truth,
         weber,
         covered,
+        covered_profile,
         answers,
     }
 }
@@ -229,38 +237,51 @@ fn median(v: &[f64]) -> f64 {
     }
 }
 
-/// Median bias under `max_bias`, and 95% intervals covering the truth in
-/// at least 60% of the participants. The coverage is reported: it falls
-/// short of 95% (0.68-0.88 measured). The parametric bootstrap redraws
-/// answers at the differences the adaptive track presented, which leaves
-/// out how the track itself would have wandered; re-running the track in
-/// the bootstrap raised QUEST+ to 0.92 but lowered the staircases to
-/// 0.58-0.60, and Efron's bias-corrected percentiles changed little
-/// (0.68-0.86), so neither is used. Measured once (not asserted): the
-/// staircases' intervals are too narrow, not off centre. Over the 50
-/// participants the fitted Weber fractions spread with SD 0.041 after 80
-/// trials of 1-up-2-down, while the median 95% interval, 0.071 wide,
-/// implies 0.018; for QUEST+ 0.054 against 0.052. Resampling each
-/// difference's own answers (a nonparametric bootstrap) is narrower
-/// still. A fit to a staircase's answers, gathered over a narrow range of
-/// differences, tends to be steep (Kaernbach 2001, slope bias), and answers
-/// redrawn from a steep function vary little.
-fn assert_recovered(name: &str, r: &Recovery, max_bias: f64) {
+/// Median bias under `max_bias`, and the two 95% intervals' coverage of
+/// the truth: the profile-likelihood interval's at least
+/// `min_profile_coverage` and at least the bootstrap's.
+///
+/// Measured (50 participants a method, so a coverage's standard error is
+/// about 0.03 near 0.95): profile likelihood 0.94 (QUEST+), 0.80
+/// (1-up-2-down), 0.88 (weighted 1-up-1-down), 0.90 and 0.84 (1-up-3-down,
+/// 80 and 160 trials); the parametric bootstrap 0.88, 0.68, 0.80, 0.78 and
+/// 0.80. The staircases' intervals remain short of 95%.
+///
+/// Why the bootstrap under-covers, measured once (not asserted): its
+/// intervals are too narrow, not off centre. Over the 50 participants the
+/// fitted Weber fractions spread with SD 0.041 after 80 trials of
+/// 1-up-2-down, while the median bootstrap interval, 0.071 wide, implies
+/// 0.018; for QUEST+ 0.054 against 0.052. It redraws answers at the
+/// differences the track presented, from the fitted function; a fit to a
+/// staircase's answers, gathered over a narrow range of differences, tends
+/// to be steep (Kaernbach 2001, slope bias), and answers redrawn from a
+/// steep function vary little. Also tried, and dropped: re-running the
+/// track in the bootstrap (QUEST+ 0.92, the staircases 0.58-0.60), Efron's
+/// bias-corrected percentiles (0.68-0.86), the basic bootstrap (0.54-0.84)
+/// and redrawing each difference's own answers (narrower still). The
+/// profile likelihood lets the slope be as shallow as the answers allow at
+/// each threshold, and the likelihood does not depend on how the track
+/// chose its differences.
+fn assert_recovered(name: &str, r: &Recovery, max_bias: f64, min_profile_coverage: f64) {
     let bias = median(&r.weber) / r.truth - 1.0;
     #[expect(clippy::cast_precision_loss, reason = "participant counts")]
-    let coverage = r.covered as f64 / f64::from(PARTICIPANTS);
+    let coverage = |n: usize| n as f64 / f64::from(PARTICIPANTS);
     eprintln!(
-        "{name}: true Weber fraction {:.4}, median fitted {:.4} (bias {:+.1}%), 95% CI coverage {:.2} ({}/{PARTICIPANTS})",
+        "{name}: true Weber fraction {:.4}, median fitted {:.4} (bias {:+.1}%), 95% CI coverage: bootstrap {:.2} ({}/{PARTICIPANTS}), profile likelihood {:.2} ({}/{PARTICIPANTS})",
         r.truth,
         median(&r.weber),
         bias * 100.0,
-        coverage,
-        r.covered
+        coverage(r.covered),
+        r.covered,
+        coverage(r.covered_profile),
+        r.covered_profile,
     );
     assert!(bias.abs() < max_bias, "{name}: median bias {bias}");
     assert!(
-        (0.6..=1.0).contains(&coverage),
-        "{name}: coverage {coverage}"
+        coverage(r.covered_profile) >= min_profile_coverage && r.covered_profile >= r.covered,
+        "{name}: profile-likelihood coverage {}, bootstrap {}",
+        coverage(r.covered_profile),
+        coverage(r.covered)
     );
 }
 
@@ -302,14 +323,19 @@ fn spread(design: &DiscriminationDesign, answers: &[Vec<(f64, bool)>], n: usize)
 fn each_method_recovers_a_known_threshold_and_quest_plus_needs_fewer_trials_issue_17() {
     let truth = truth();
     let quest = recover(quest_plus(60), truth);
-    assert_recovered("QUEST+ (60 trials)", &quest, 0.10);
+    assert_recovered("QUEST+ (60 trials)", &quest, 0.10, 0.9);
     let two = recover(staircase(2, 80), truth);
-    assert_recovered("1-up-2-down (80 trials)", &two, 0.10);
+    assert_recovered("1-up-2-down (80 trials)", &two, 0.10, 0.75);
     // Kaernbach's weighted 1-up-1-down, aimed at the 75% criterion.
     let mut weighted = staircase(1, 80);
     weighted["target"] = 0.75.into();
     let weighted = recover(weighted, truth);
-    assert_recovered("weighted 1-up-1-down at 75% (80 trials)", &weighted, 0.10);
+    assert_recovered(
+        "weighted 1-up-1-down at 75% (80 trials)",
+        &weighted,
+        0.10,
+        0.75,
+    );
     // 1-up-3-down misses the issue's 10% at 80 trials: +13.3% (the bound
     // here holds the measured bias, not the goal). Its answers gather near
     // 79% correct with few at high performance, so the free lapse (up to
@@ -318,9 +344,9 @@ fn each_method_recovers_a_known_threshold_and_quest_plus_needs_fewer_trials_issu
     // Weibull it is +13.1% (measured once, not asserted). It shrinks with
     // trials: +10.6% at 120, +8.4% at 160, +7.0% at 240.
     let three = recover(staircase(3, 80), truth);
-    assert_recovered("1-up-3-down (80 trials)", &three, 0.15);
+    assert_recovered("1-up-3-down (80 trials)", &three, 0.15, 0.75);
     let longer = recover(staircase(3, 160), truth);
-    assert_recovered("1-up-3-down (160 trials)", &longer, 0.10);
+    assert_recovered("1-up-3-down (160 trials)", &longer, 0.10, 0.75);
 
     let (p, _) = one_level(quest_plus(60));
     let d = design(&p);

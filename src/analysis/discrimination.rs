@@ -13,16 +13,28 @@
 //! at the threshold; Weber fraction = JND / reference.
 //!
 //! # Intervals
-//! Parametric bootstrap (`fit.bootstrap` samples): answers drawn from the
-//! fitted function at the track's differences and counts, refitted; the
-//! 2.5th and 97.5th percentiles of the refitted thresholds (JND and Weber
-//! fraction are monotone in it). Each track's bootstrap is seeded from its
-//! participant and level, so a report is the same on every run.
+//! Two 95% intervals of the threshold (and so of JND and Weber fraction,
+//! which are monotone in it):
+//! - parametric bootstrap (`fit.bootstrap` samples): answers drawn from
+//!   the fitted function at the track's differences and counts, refitted;
+//!   the 2.5th and 97.5th percentiles of the refitted thresholds. Each
+//!   track's bootstrap is seeded from its participant and level, so a
+//!   report is the same on every run;
+//! - profile likelihood (`fit::profile_threshold`): the thresholds whose
+//!   likelihood-ratio deviance is within 3.84. The likelihood does not
+//!   depend on how an adaptive track chose its differences, where the
+//!   bootstrap's redraws at the track's own differences leave out how the
+//!   track would have wandered; in the recovery test
+//!   (`tests/discrimination.rs`) it covers the true threshold more often
+//!   for every method. An end where the data do not bound the threshold
+//!   is the fit box's edge, flagged in `profile_open`.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use frictionlab_psychophysics::fit::{Block, Fit, FitSpec, blocks, bootstrap_threshold, fit};
+use frictionlab_psychophysics::fit::{
+    Block, Fit, FitSpec, Profile, blocks, bootstrap_threshold, fit, profile_threshold,
+};
 use frictionlab_psychophysics::psychometric::{GUESS_2IFC, Psychometric};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -58,6 +70,10 @@ pub struct TrackFit {
     pub weber: Option<f64>,
     /// Bootstrap interval of the Weber fraction.
     pub weber_ci: Option<(f64, f64)>,
+    /// Profile-likelihood interval of the threshold.
+    pub threshold_profile: Option<Profile>,
+    /// Profile-likelihood interval of the Weber fraction.
+    pub weber_ci_profile: Option<(f64, f64)>,
 }
 
 /// The discrimination results.
@@ -124,10 +140,15 @@ pub fn fit_track(
         )
         .map(|b| (b.interval.lo, b.interval.hi))
     });
+    let threshold_profile = fitted
+        .filter(|_| threshold.is_some())
+        .and_then(|f| profile_threshold(&spec, &f, &data, design.criterion, 0.95));
     let c = design.comparison;
     let jnd = threshold.map(|x| c.value(level, x) - level);
     let weber = threshold.map(|x| c.weber(level, x));
     let weber_ci = threshold_ci.map(|(lo, hi)| (c.weber(level, lo), c.weber(level, hi)));
+    let weber_ci_profile =
+        threshold_profile.map(|p| (c.weber(level, p.interval.lo), c.weber(level, p.interval.hi)));
     TrackFit {
         participant: participant.to_owned(),
         level,
@@ -139,6 +160,8 @@ pub fn fit_track(
         jnd,
         weber,
         weber_ci,
+        threshold_profile,
+        weber_ci_profile,
     }
 }
 
@@ -228,6 +251,9 @@ fn fit_json(t: &TrackFit) -> Value {
         "jnd": t.jnd,
         "weber": t.weber,
         "weber_ci": t.weber_ci.map(|(a, b)| [a, b]),
+        "threshold_ci_profile": t.threshold_profile.map(|p| [p.interval.lo, p.interval.hi]),
+        "weber_ci_profile": t.weber_ci_profile.map(|(a, b)| [a, b]),
+        "profile_open": t.threshold_profile.map(|p| p.open),
     })
 }
 
@@ -248,6 +274,8 @@ fn tables(tracks: &[TrackFit], groups: &[Value]) -> Vec<Table> {
             "weber",
             "weber_lo",
             "weber_hi",
+            "weber_profile_lo",
+            "weber_profile_hi",
         ]
         .map(String::from)
         .to_vec(),
@@ -269,6 +297,8 @@ fn tables(tracks: &[TrackFit], groups: &[Value]) -> Vec<Table> {
                     opt(t.weber),
                     opt(t.weber_ci.map(|c| c.0)),
                     opt(t.weber_ci.map(|c| c.1)),
+                    opt(t.weber_ci_profile.map(|c| c.0)),
+                    opt(t.weber_ci_profile.map(|c| c.1)),
                 ]
             })
             .collect(),

@@ -74,7 +74,7 @@ use rand::RngExt;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::psychometric::{Params, Psychometric, Shape, phi};
+use crate::psychometric::{Params, Psychometric, Shape, phi, phi_inverse};
 
 /// Answers at one stimulus level.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -289,6 +289,107 @@ pub fn bootstrap_threshold(
     })
 }
 
+/// A profile-likelihood interval of a threshold ([`profile_threshold`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Profile {
+    /// The thresholds whose profile deviance is within the chi-square
+    /// quantile.
+    pub interval: Interval,
+    /// Whether each end is the most extreme threshold of any function in
+    /// the fit's box (module docs) rather than where the deviance reaches
+    /// the quantile: the data do not bound the threshold on that side.
+    pub open: [bool; 2],
+}
+
+/// Likelihood-ratio interval of the threshold at `criterion`: the
+/// thresholds `t` whose profile deviance `2 (ll(fit) - max ll over the
+/// functions with threshold t at the criterion)` is at most the
+/// chi-square quantile (1 degree of freedom) at `confidence` (3.84 for
+/// 0.95). The maximum over the other parameters (slope and lapse rate)
+/// is taken within the fit's box (module docs), the location following
+/// from `t`, the slope and the lapse rate and staying in its box too.
+///
+/// Unlike [`bootstrap_threshold`], which redraws answers at the data's
+/// own stimuli, the likelihood does not depend on how the stimuli were
+/// chosen, so the interval is the same whether the data came from
+/// constant stimuli or an adaptive track that chose each stimulus from
+/// the answers before it (the likelihood principle; the chi-square
+/// quantile is a large-sample approximation).
+///
+/// The search, deterministic: each end by bisection (on `ln t` for the
+/// Weibull, `t` otherwise) between the fitted threshold and the most
+/// extreme threshold of the box's functions, 48 halvings; the inner
+/// maximum at each `t` over 9 lapse rates evenly across their bound, each
+/// with the best of 24 log slopes evenly across those that keep the
+/// location in its box, refined by golden section, then golden section on
+/// the lapse rate between the best one's neighbours. `None` for invalid input
+/// (as [`fit`]; `confidence` outside `(0, 1)`; a fit whose function never
+/// reaches `criterion`).
+#[must_use]
+pub fn profile_threshold(
+    spec: &FitSpec,
+    fit: &Fit,
+    data: &[Block],
+    criterion: f64,
+    confidence: f64,
+) -> Option<Profile> {
+    if !(confidence > 0.0 && confidence < 1.0 && criterion > spec.guess && criterion < 1.0) {
+        return None;
+    }
+    let problem = Problem::new(spec, data)?;
+    let ll_fit = log_likelihood(spec, &fit.params, data);
+    if !problem.searchable() || !ll_fit.is_finite() {
+        return None;
+    }
+    let t = Psychometric {
+        shape: spec.shape,
+        params: fit.params,
+        guess: spec.guess,
+    }
+    .threshold_at(criterion)?;
+    let tau = match spec.shape {
+        Shape::Weibull => t.ln(),
+        Shape::Logistic | Shape::CumulativeNormal => t,
+    };
+    if !tau.is_finite() {
+        return None;
+    }
+    let quantile = phi_inverse(0.5 + 0.5 * confidence).powi(2);
+    let ll_max = ll_fit.max(problem.profile(tau, criterion));
+    let deviance = |tau: f64| 2.0 * (ll_max - problem.profile(tau, criterion));
+    // Each end: the extreme threshold when the deviance is within the
+    // quantile there, else where it crosses the quantile between there
+    // and the fit.
+    let end = |edge: f64| -> (f64, bool) {
+        if deviance(edge) <= quantile {
+            return (edge, true);
+        }
+        let (mut inside, mut outside) = (tau, edge);
+        for _ in 0..BISECTIONS {
+            let mid = 0.5 * (inside + outside);
+            if deviance(mid) <= quantile {
+                inside = mid;
+            } else {
+                outside = mid;
+            }
+        }
+        (inside, false)
+    };
+    let (tau_lo, tau_hi) = problem.threshold_range(criterion);
+    let ((lo, lo_open), (hi, hi_open)) = (end(tau_lo.min(tau)), end(tau_hi.max(tau)));
+    let x = |w: f64| match spec.shape {
+        Shape::Weibull => w.exp(),
+        Shape::Logistic | Shape::CumulativeNormal => w,
+    };
+    Some(Profile {
+        interval: Interval {
+            lo: x(lo),
+            hi: x(hi),
+        },
+        open: [lo_open, hi_open],
+    })
+}
+
 /// The `q` quantile of sorted `v` (not empty), linear between order
 /// statistics (R's type 7).
 fn quantile(v: &[f64], q: f64) -> f64 {
@@ -301,6 +402,14 @@ fn quantile(v: &[f64], q: f64) -> f64 {
         None => v[i],
     }
 }
+
+/// The profile interval's search ([`profile_threshold`]): halvings of
+/// each end's bracket; lapse rates and log slopes scanned at each
+/// threshold; golden-section steps refining the best of each.
+const BISECTIONS: usize = 48;
+const PROFILE_LAPSES: usize = 9;
+const PROFILE_SLOPES: usize = 24;
+const GOLDEN_STEPS: usize = 36;
 
 /// The slope bounds as multiples of `1 / span` (module docs).
 const SLOPE_SPAN_MIN: f64 = 0.01;
@@ -468,25 +577,105 @@ impl Problem {
 
     /// The log-likelihood at location `a`, slope `s`, lapse `lapse`.
     fn ll(&self, a: f64, s: f64, lapse: f64) -> f64 {
-        let sigmoids: Vec<(f64, f64)> = self
-            .w
-            .iter()
-            .map(|&w| {
-                let (f, cf, _) = self.shape.sigmoid(s * (w - a));
-                (f, cf)
-            })
-            .collect();
-        self.ll_of(&sigmoids, lapse)
+        let sigmoids = self.w.iter().map(|&w| {
+            let (f, cf, _) = self.shape.sigmoid(s * (w - a));
+            (f, cf)
+        });
+        self.ll_of(sigmoids, lapse)
     }
 
     /// The log-likelihood given `(F, 1 - F)` at each block.
-    fn ll_of(&self, sigmoids: &[(f64, f64)], lapse: f64) -> f64 {
+    fn ll_of(&self, sigmoids: impl IntoIterator<Item = (f64, f64)>, lapse: f64) -> f64 {
         let h = 1.0 - self.guess - lapse;
         let mut ll = self.constant;
-        for ((&(f, cf), &k), &m) in sigmoids.iter().zip(&self.right).zip(&self.wrong) {
+        for (((f, cf), &k), &m) in sigmoids.into_iter().zip(&self.right).zip(&self.wrong) {
             ll += xlny(k, self.guess + h * f) + xlny(m, h * cf + lapse);
         }
         if ll.is_nan() { f64::NEG_INFINITY } else { ll }
+    }
+
+    /// The largest lapse rate at which a function can reach `criterion`
+    /// (just below `1 - criterion`), within the box.
+    fn profile_lapse_hi(&self, criterion: f64) -> f64 {
+        self.hi[2].min((1.0 - criterion) * (1.0 - 1e-9)).max(0.0)
+    }
+
+    /// The standard sigmoid's `z` at the criterion for lapse rate `lapse`:
+    /// a function's threshold at the criterion is `location + z / slope`
+    /// on the `w` axis.
+    fn criterion_z(&self, criterion: f64, lapse: f64) -> f64 {
+        self.shape
+            .standard_inverse((criterion - self.guess) / (1.0 - self.guess - lapse))
+    }
+
+    /// The thresholds at `criterion` (on the `w` axis) of the functions in
+    /// the box: `location + z / slope` at its extremes (`z` grows with the
+    /// lapse rate).
+    fn threshold_range(&self, criterion: f64) -> (f64, f64) {
+        let z_min = self.criterion_z(criterion, 0.0);
+        let z_max = self.criterion_z(criterion, self.profile_lapse_hi(criterion));
+        let lo = self.lo[0]
+            + if z_min < 0.0 {
+                z_min / self.slope_lo
+            } else {
+                z_min / self.slope_hi
+            };
+        let hi = self.hi[0]
+            + if z_max > 0.0 {
+                z_max / self.slope_lo
+            } else {
+                z_max / self.slope_hi
+            };
+        (lo, hi)
+    }
+
+    /// The largest log-likelihood of the functions in the box whose
+    /// threshold at `criterion` is at `tau` (on the `w` axis)
+    /// ([`profile_threshold`]): at lapse rate `l` and slope `s` the
+    /// location is `tau - z / s` ([`Problem::criterion_z`]), which must lie
+    /// in the box, so the slopes searched are those that put it there.
+    /// `-inf` where no function in the box has that threshold.
+    fn profile(&self, tau: f64, criterion: f64) -> f64 {
+        let at_lapse = |lapse: f64| -> f64 {
+            let z = self.criterion_z(criterion, lapse);
+            let Some((ln_lo, ln_hi)) = self.feasible_ln_slopes(tau, z) else {
+                return f64::NEG_INFINITY;
+            };
+            let at = |ln_slope: f64| -> f64 {
+                let s = ln_slope
+                    .clamp(ln_lo, ln_hi)
+                    .exp()
+                    .clamp(self.slope_lo, self.slope_hi);
+                self.ll(tau - z / s, s, lapse)
+            };
+            scan_and_refine(ln_lo, ln_hi, PROFILE_SLOPES, &at).1
+        };
+        let lapse_hi = self.profile_lapse_hi(criterion);
+        if lapse_hi <= 0.0 {
+            return at_lapse(0.0);
+        }
+        scan_and_refine(0.0, lapse_hi, PROFILE_LAPSES, &at_lapse).1
+    }
+
+    /// The log slopes within the box for which `tau - z / slope` is in the
+    /// location's box; `None` if there are none.
+    fn feasible_ln_slopes(&self, tau: f64, z: f64) -> Option<(f64, f64)> {
+        // With u = 1 / slope: tau - hi <= z u <= tau - lo.
+        let (a, b) = (tau - self.hi[0], tau - self.lo[0]);
+        let (mut u_lo, mut u_hi) = (1.0 / self.slope_hi, 1.0 / self.slope_lo);
+        if z > 0.0 {
+            (u_lo, u_hi) = (u_lo.max(a / z), u_hi.min(b / z));
+        } else if z < 0.0 {
+            (u_lo, u_hi) = (u_lo.max(b / z), u_hi.min(a / z));
+        } else if !(a <= 0.0 && 0.0 <= b) {
+            return None;
+        }
+        // At the range's ends (threshold_range) one slope remains, which
+        // rounding may leave a hair outside.
+        if u_lo > u_hi && u_lo - u_hi <= 1e-12 * u_hi {
+            u_lo = u_hi;
+        }
+        (u_lo <= u_hi && u_lo > 0.0).then(|| (-u_hi.ln(), -u_lo.ln()))
     }
 
     /// The log-likelihood with its gradient and Hessian in `u`.
@@ -637,7 +826,7 @@ impl Problem {
                     *slot = (f, cf);
                 }
                 for (il, &lapse) in axes[2].iter().enumerate() {
-                    grid[index(ia, ib, il)] = self.ll_of(&sigmoids, lapse);
+                    grid[index(ia, ib, il)] = self.ll_of(sigmoids.iter().copied(), lapse);
                 }
             }
         }
@@ -982,6 +1171,58 @@ impl Shape {
                     (d1, d1 * (1.0 - ez))
                 }
             }
+        }
+    }
+}
+
+/// The maximum of `f` over `[lo, hi]`: the best of `count` points evenly
+/// across it (both ends included), refined by golden section between its
+/// neighbours; `(argmax, max)`. Deterministic.
+fn scan_and_refine(lo: f64, hi: f64, count: usize, f: &impl Fn(f64) -> f64) -> (f64, f64) {
+    #[allow(clippy::cast_precision_loss)]
+    let point = |i: usize| lo + (hi - lo) * i as f64 / (count - 1) as f64;
+    let (mut best_i, mut best) = (0, f64::NEG_INFINITY);
+    for i in 0..count {
+        let v = f(point(i));
+        if v > best {
+            (best_i, best) = (i, v);
+        }
+    }
+    let mut best_x = point(best_i);
+    let (mut a, mut b) = (
+        point(best_i.saturating_sub(1)),
+        point((best_i + 1).min(count - 1)),
+    );
+    let ratio = 0.5 * (5.0_f64.sqrt() - 1.0);
+    let (mut c, mut d) = (b - ratio * (b - a), a + ratio * (b - a));
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..GOLDEN_STEPS {
+        if fc >= fd {
+            (b, d, fd) = (d, c, fc);
+            c = b - ratio * (b - a);
+            fc = f(c);
+        } else {
+            (a, c, fc) = (c, d, fd);
+            d = a + ratio * (b - a);
+            fd = f(d);
+        }
+    }
+    for (x, v) in [(c, fc), (d, fd)] {
+        if v > best {
+            (best_x, best) = (x, v);
+        }
+    }
+    (best_x, best)
+}
+
+impl Shape {
+    /// The standard sigmoid's inverse: the `z` where [`Shape::sigmoid`]'s
+    /// `G(z) = p`, for `p` in (0, 1).
+    fn standard_inverse(self, p: f64) -> f64 {
+        match self {
+            Shape::Weibull => (-(-p).ln_1p()).ln(),
+            Shape::Logistic => (p / (1.0 - p)).ln(),
+            Shape::CumulativeNormal => phi_inverse(p),
         }
     }
 }

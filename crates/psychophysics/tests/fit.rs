@@ -1,7 +1,9 @@
-//! The maximum-likelihood fit and the bootstrap, on simulated data.
+//! The maximum-likelihood fit, the bootstrap and the profile-likelihood
+//! interval, on simulated data.
 
 use frictionlab_psychophysics::fit::{
-    Block, Fit, FitSpec, blocks, bootstrap_threshold, fit, log_likelihood,
+    Block, Fit, FitSpec, Interval, blocks, bootstrap_threshold, fit, log_likelihood,
+    profile_threshold,
 };
 use frictionlab_psychophysics::psychometric::{GUESS_2IFC, Params, Psychometric, Shape};
 use rand::{RngExt, SeedableRng};
@@ -554,4 +556,134 @@ fn the_bootstrap_is_reproducible_from_its_seed_and_counts_failed_samples() {
             None
         );
     }
+}
+
+/// The profile deviance at threshold `t` (criterion 0.75) by brute force,
+/// independent of the library's search: the most likely of a dense grid
+/// of slopes (log-spaced over `slopes`) and lapse rates (evenly over
+/// `[0, max_lapse]`), the location following from `t`, through the public
+/// `log_likelihood`. A grid can only miss the maximum, so this is at least
+/// the true deviance.
+fn brute_deviance(s: &FitSpec, f: &Fit, data: &[Block], t: f64, slopes: (f64, f64)) -> f64 {
+    let mut best = f64::NEG_INFINITY;
+    for i in 0..=600 {
+        let slope = (slopes.0.ln() + (slopes.1 / slopes.0).ln() * f64::from(i) / 600.0).exp();
+        for j in 0..=30 {
+            let lapse = s.max_lapse * f64::from(j) / 30.0;
+            let p = (0.75 - s.guess) / (1.0 - s.guess - lapse);
+            let location = match s.shape {
+                Shape::Weibull => t / s.shape.f_inverse(p, 1.0, slope),
+                Shape::Logistic | Shape::CumulativeNormal => t - s.shape.f_inverse(p, 0.0, slope),
+            };
+            let ll = log_likelihood(
+                s,
+                &Params {
+                    threshold: location,
+                    slope,
+                    lapse,
+                },
+                data,
+            );
+            best = best.max(ll);
+        }
+    }
+    2.0 * (f.log_likelihood - best)
+}
+
+/// Each closed end of the interval is where the profile deviance crosses
+/// the chi-square quantile 3.84: by an independent brute-force profile,
+/// 1 % inside the end the deviance is below it and 1 % outside above it.
+#[test]
+fn the_profile_interval_ends_where_the_deviance_crosses_the_chi_square_quantile() {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let mut closed_ends = 0;
+    for (truth, xs) in truths() {
+        for max_lapse in [0.0, 0.05] {
+            let s = spec(truth.shape, max_lapse);
+            let data = simulate(&truth, &xs, 20, &mut rng);
+            let f = fit(&s, &data).unwrap();
+            let t = Psychometric {
+                shape: s.shape,
+                params: f.params,
+                guess: s.guess,
+            }
+            .threshold_at(0.75)
+            .unwrap();
+            let profile = profile_threshold(&s, &f, &data, 0.75, 0.95).unwrap();
+            let Interval { lo, hi } = profile.interval;
+            assert!(lo < t && t < hi, "{:?}: {lo} < {t} < {hi}", s.shape);
+            // The slope box of the fit (module docs): its span of w.
+            let w = |x: f64| if s.shape == Shape::Weibull { x.ln() } else { x };
+            let span = w(xs[xs.len() - 1]) - w(xs[0]);
+            let slopes = (0.01 / span, 100.0 / span);
+            let step = 0.01 * (hi - lo);
+            for (end, open, inward) in [(lo, profile.open[0], step), (hi, profile.open[1], -step)] {
+                if open {
+                    continue;
+                }
+                closed_ends += 1;
+                let inside = brute_deviance(&s, &f, &data, end + inward, slopes);
+                let outside = brute_deviance(&s, &f, &data, end - inward, slopes);
+                assert!(
+                    inside < 3.841 && outside > 3.841,
+                    "{:?} lapse <= {max_lapse}: at the end {end}, deviance {inside} inside and {outside} outside",
+                    s.shape
+                );
+            }
+        }
+    }
+    assert!(closed_ends >= 10, "{closed_ends} closed ends checked");
+}
+
+/// Coverage of the profile interval over repeated constant-stimuli
+/// experiments, as the bootstrap's above.
+#[test]
+fn the_profile_95_percent_interval_covers_the_true_threshold_about_95_percent_of_the_time() {
+    let truth = Psychometric {
+        shape: Shape::Weibull,
+        params: Params {
+            threshold: 0.3,
+            slope: 3.0,
+            lapse: 0.02,
+        },
+        guess: GUESS_2IFC,
+    };
+    let xs = [0.1, 0.15, 0.2, 0.3, 0.4, 0.6];
+    let s = spec(Shape::Weibull, 0.05);
+    let t_true = truth.threshold_at(0.75).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(2025);
+    let (repetitions, mut covered) = (400, 0);
+    for _ in 0..repetitions {
+        let data = simulate(&truth, &xs, 30, &mut rng);
+        let f = fit(&s, &data).unwrap();
+        let p = profile_threshold(&s, &f, &data, 0.75, 0.95).unwrap();
+        covered += u32::from(p.interval.lo <= t_true && t_true <= p.interval.hi);
+    }
+    let coverage = f64::from(covered) / f64::from(repetitions);
+    eprintln!("profile coverage {covered}/{repetitions} = {coverage}");
+    assert!((0.92..=0.98).contains(&coverage), "coverage {coverage}");
+}
+
+/// Answers at chance everywhere do not bound the threshold: the interval
+/// runs to the box's edge on the side the data cannot exclude, flagged
+/// open; and invalid input gives `None` without panicking.
+#[test]
+fn unbounded_data_give_an_open_end_and_invalid_input_none() {
+    let s = spec(Shape::Weibull, 0.05);
+    let data = [block(0.1, 20, 10), block(0.2, 20, 11), block(0.4, 20, 10)];
+    let f = fit(&s, &data).unwrap();
+    let p = profile_threshold(&s, &f, &data, 0.75, 0.95).unwrap();
+    assert!(p.open[1] && !p.open[0], "{p:?}");
+    let good = [block(0.1, 20, 11), block(0.2, 20, 15), block(0.4, 20, 19)];
+    let f = fit(&s, &good).unwrap();
+    assert!(profile_threshold(&s, &f, &good, 0.75, 0.95).is_some());
+    assert!(profile_threshold(&s, &f, &good, 0.75, 1.0).is_none());
+    assert!(profile_threshold(&s, &f, &good, 0.75, f64::NAN).is_none());
+    assert!(
+        profile_threshold(&s, &f, &good, 0.5, 0.95).is_none(),
+        "criterion at the guess rate"
+    );
+    assert!(profile_threshold(&s, &f, &[], 0.75, 0.95).is_none());
+    assert!(profile_threshold(&s, &f, &[block(f64::NAN, 3, 1)], 0.75, 0.95).is_none());
+    assert!(profile_threshold(&s, &f, &[block(0.1, 3, 4)], 0.75, 0.95).is_none());
 }
