@@ -333,29 +333,51 @@ pub fn profile_threshold(
     criterion: f64,
     confidence: f64,
 ) -> Option<Profile> {
-    if !(confidence > 0.0 && confidence < 1.0 && criterion > spec.guess && criterion < 1.0) {
+    if !(confidence > 0.0 && confidence < 1.0) {
         return None;
     }
-    let problem = Problem::new(spec, data)?;
-    let ll_fit = log_likelihood(spec, &fit.params, data);
-    if !problem.searchable() || !ll_fit.is_finite() {
-        return None;
-    }
-    let t = Psychometric {
-        shape: spec.shape,
-        params: fit.params,
-        guess: spec.guess,
-    }
-    .threshold_at(criterion)?;
+    let quantile = phi_inverse(0.5 + 0.5 * confidence).powi(2);
+    profile_interval(spec, fit, data, criterion, quantile)
+}
+
+/// The profile deviance of threshold `t` at `criterion`:
+/// `2 (ll(fit) - max ll over the functions in the box with threshold t)`
+/// ([`profile_threshold`]); `+inf` where no function in the box has that
+/// threshold. `None` for invalid input (as [`profile_threshold`]).
+#[must_use]
+pub fn profile_deviance(
+    spec: &FitSpec,
+    fit: &Fit,
+    data: &[Block],
+    criterion: f64,
+    t: f64,
+) -> Option<f64> {
+    let (problem, ll_max, _) = profile_search(spec, fit, data, criterion)?;
     let tau = match spec.shape {
         Shape::Weibull => t.ln(),
         Shape::Logistic | Shape::CumulativeNormal => t,
     };
-    if !tau.is_finite() {
+    tau.is_finite()
+        .then(|| 2.0 * (ll_max - problem.profile(tau, criterion)))
+}
+
+/// The thresholds whose profile deviance ([`profile_deviance`]) is at
+/// most `cutoff` ([`profile_threshold`] with the chi-square quantile; a
+/// cutoff calibrated by simulation otherwise). `None` for invalid input
+/// or a `cutoff` that is not positive and finite.
+#[must_use]
+pub fn profile_interval(
+    spec: &FitSpec,
+    fit: &Fit,
+    data: &[Block],
+    criterion: f64,
+    cutoff: f64,
+) -> Option<Profile> {
+    if !(cutoff > 0.0 && cutoff.is_finite()) {
         return None;
     }
-    let quantile = phi_inverse(0.5 + 0.5 * confidence).powi(2);
-    let ll_max = ll_fit.max(problem.profile(tau, criterion));
+    let (problem, ll_max, tau) = profile_search(spec, fit, data, criterion)?;
+    let quantile = cutoff;
     let deviance = |tau: f64| 2.0 * (ll_max - problem.profile(tau, criterion));
     // Each end: the extreme threshold when the deviance is within the
     // quantile there, else where it crosses the quantile between there
@@ -388,6 +410,41 @@ pub fn profile_threshold(
         },
         open: [lo_open, hi_open],
     })
+}
+
+/// The setting of a profile search: the problem, the largest
+/// log-likelihood (the fit's, or the profile's at the fitted threshold
+/// if the search finds one higher) and the fitted threshold on the `w`
+/// axis.
+fn profile_search(
+    spec: &FitSpec,
+    fit: &Fit,
+    data: &[Block],
+    criterion: f64,
+) -> Option<(Problem, f64, f64)> {
+    if !(criterion > spec.guess && criterion < 1.0) {
+        return None;
+    }
+    let problem = Problem::new(spec, data)?;
+    let ll_fit = log_likelihood(spec, &fit.params, data);
+    if !problem.searchable() || !ll_fit.is_finite() {
+        return None;
+    }
+    let t = Psychometric {
+        shape: spec.shape,
+        params: fit.params,
+        guess: spec.guess,
+    }
+    .threshold_at(criterion)?;
+    let tau = match spec.shape {
+        Shape::Weibull => t.ln(),
+        Shape::Logistic | Shape::CumulativeNormal => t,
+    };
+    if !tau.is_finite() {
+        return None;
+    }
+    let ll_max = ll_fit.max(problem.profile(tau, criterion));
+    Some((problem, ll_max, tau))
 }
 
 /// The `q` quantile of sorted `v` (not empty), linear between order

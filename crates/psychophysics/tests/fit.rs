@@ -3,7 +3,7 @@
 
 use frictionlab_psychophysics::fit::{
     Block, Fit, FitSpec, Interval, blocks, bootstrap_threshold, fit, log_likelihood,
-    profile_threshold,
+    profile_deviance, profile_threshold,
 };
 use frictionlab_psychophysics::psychometric::{GUESS_2IFC, Params, Psychometric, Shape};
 use rand::{RngExt, SeedableRng};
@@ -622,6 +622,11 @@ fn the_profile_interval_ends_where_the_deviance_crosses_the_chi_square_quantile(
                     continue;
                 }
                 closed_ends += 1;
+                let at_end = profile_deviance(&s, &f, &data, 0.75, end).unwrap();
+                assert!(
+                    (at_end - 3.841_458_820_694_124).abs() < 1e-6,
+                    "deviance {at_end} at {end}"
+                );
                 let inside = brute_deviance(&s, &f, &data, end + inward, slopes);
                 let outside = brute_deviance(&s, &f, &data, end - inward, slopes);
                 assert!(
@@ -686,4 +691,70 @@ fn unbounded_data_give_an_open_end_and_invalid_input_none() {
     assert!(profile_threshold(&s, &f, &[], 0.75, 0.95).is_none());
     assert!(profile_threshold(&s, &f, &[block(f64::NAN, 3, 1)], 0.75, 0.95).is_none());
     assert!(profile_threshold(&s, &f, &[block(0.1, 3, 4)], 0.75, 0.95).is_none());
+}
+
+/// Staircase tracks run by an observer whose psychometric function is the
+/// fitted family itself (a Weibull), so no misfit of shape is involved:
+/// the profile-likelihood interval covers the true threshold more often
+/// than the bootstrap's, and both fall short of 95 %.
+///
+/// Measured (200 tracks of 80 trials each): 1-up-2-down profile 0.785,
+/// bootstrap 0.67; 1-up-3-down 0.805 and 0.74; the same shortfall as the simulated participants'
+/// recovery in `tests/discrimination.rs` (0.80 and 0.68), so it belongs to
+/// fitting a free slope and lapse rate to a staircase's answers, not to
+/// the simulated participant. Calibrating the deviance cutoff by re-running
+/// the track from the fitted function (95th percentile of the simulated
+/// deviances at the generating threshold, median cutoff 5.65 instead of
+/// 3.84) raised 1-up-2-down to 0.84 only, at 100 refits a track; not used.
+#[test]
+fn on_staircase_tracks_the_profile_interval_covers_more_often_than_the_bootstrap() {
+    use frictionlab_psychophysics::adaptive::{Staircase, StaircaseRule};
+    let truth = Psychometric {
+        shape: Shape::Weibull,
+        params: Params {
+            threshold: 0.25,
+            slope: 3.0,
+            lapse: 0.02,
+        },
+        guess: GUESS_2IFC,
+    };
+    let t_true = truth.threshold_at(0.75).unwrap();
+    let s = spec(Shape::Weibull, 0.06);
+    for down in [2, 3] {
+        let rule = StaircaseRule {
+            down,
+            start: 0.5,
+            steps: vec![0.1, 0.05, 0.025, 0.0125],
+            up_ratio: 1.0,
+            min: 0.0125,
+            max: 1.0,
+            stop_trials: Some(80),
+            stop_reversals: None,
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(u64::from(down));
+        let (repetitions, mut profile_covered, mut bootstrap_covered) = (200, 0, 0);
+        for _ in 0..repetitions {
+            let mut track = Staircase::new(&rule);
+            let mut answers = Vec::new();
+            while let Some(x) = track.next(&rule) {
+                let correct = rng.random::<f64>() < truth.p_correct(x);
+                answers.push((x, correct));
+                track.update(&rule, correct);
+            }
+            let data = blocks(&answers);
+            let f = fit(&s, &data).unwrap();
+            let p = profile_threshold(&s, &f, &data, 0.75, 0.95).unwrap();
+            profile_covered += u32::from(p.interval.lo <= t_true && t_true <= p.interval.hi);
+            if let Some(b) = bootstrap_threshold(&s, &f, &data, 0.75, 100, 0.95, &mut rng) {
+                bootstrap_covered += u32::from(b.interval.lo <= t_true && t_true <= b.interval.hi);
+            }
+        }
+        eprintln!(
+            "1-up-{down}-down, 80 trials: coverage profile {profile_covered}/{repetitions}, bootstrap {bootstrap_covered}/{repetitions}"
+        );
+        assert!(
+            profile_covered > bootstrap_covered && profile_covered >= 150,
+            "1-up-{down}-down: profile {profile_covered}, bootstrap {bootstrap_covered}"
+        );
+    }
 }
