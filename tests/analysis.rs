@@ -371,6 +371,21 @@ fn fitts_statistics_match_hand_computation() {
     assert_eq!(counts(q(serde_json::json!(2.0))), [1, 0, 0, 0, 1]);
     assert_eq!(counts(q(serde_json::json!(3.0))), [1, 1, 0, 0, 0]);
     assert_eq!(counts(q(Value::Null)), [1, 1, 0, 0, 0]);
+    // Sign tests against an even split, two-sided exact: ID 2, time: P1
+    // slower, P2 faster (p = 1); errors: P1 more, P2 unchanged and left
+    // out (0 of 1 fewer: p = min(1, 2 * 0.5) = 1). ID 3, errors: both
+    // more (0 of 2 fewer: p = 2 * 0.25 = 0.5).
+    assert_close(&q(serde_json::json!(2.0))["time_sign_p"], 1.0, "time p");
+    assert_close(
+        &q(serde_json::json!(2.0))["accuracy_sign_p"],
+        1.0,
+        "accuracy p",
+    );
+    assert_close(
+        &q(serde_json::json!(3.0))["accuracy_sign_p"],
+        0.5,
+        "accuracy p",
+    );
     // Baseline MT per movement = t / 3: (2, 2/5), (3, 3/5), (2, 1/3), (3, 8/15):
     // slope 1/5, intercept -1/30, r^2 9/10.
     let reg = f["regression"]

@@ -17,6 +17,11 @@
 //!   either change is exactly zero (neither faster nor slower, or neither
 //!   more nor less accurate). `quadrants_error_count` does the same with
 //!   the number of errors as the accuracy axis.
+//! - Sign tests, per quadrant entry: `time_sign_p`, the two-sided exact
+//!   binomial test of the participants faster against those slower
+//!   (participants with no time change left out), and `accuracy_sign_p`
+//!   likewise of those more accurate against those less accurate; each
+//!   against an even split. `null` when no participant changed.
 //! - Regression: OLS of MT on ID over every test of the condition.
 //! - Throughput: each test's ISO 9241-9 effective throughput, its endpoint
 //!   spread from every click, hits and misses
@@ -29,7 +34,7 @@ use std::collections::BTreeMap;
 
 use serde_json::{Value, json};
 
-use super::stats::{effective_throughput, linear_fit, mean};
+use super::stats::{binomial_two_sided, effective_throughput, linear_fit, mean};
 use super::{Cell, Rows, Table, num, opt, text};
 use crate::problem::Problem;
 
@@ -70,6 +75,42 @@ pub struct Quadrant {
     pub counts: [u32; 5],
     /// Each participant's (time change s, accuracy change).
     pub points: Vec<(f64, f64)>,
+}
+
+impl Quadrant {
+    /// Participants faster and slower than their baseline.
+    #[must_use]
+    pub fn faster_slower(&self) -> (u64, u64) {
+        signs(self.points.iter().map(|p| p.0))
+    }
+
+    /// Participants more and less accurate than their baseline (a smaller
+    /// error is more accurate).
+    #[must_use]
+    pub fn more_less_accurate(&self) -> (u64, u64) {
+        signs(self.points.iter().map(|p| p.1))
+    }
+
+    /// The sign test of the time changes (module docs).
+    #[must_use]
+    pub fn time_sign_p(&self) -> Option<f64> {
+        let (down, up) = self.faster_slower();
+        binomial_two_sided(down, down + up)
+    }
+
+    /// The sign test of the accuracy changes (module docs).
+    #[must_use]
+    pub fn accuracy_sign_p(&self) -> Option<f64> {
+        let (down, up) = self.more_less_accurate();
+        binomial_two_sided(down, down + up)
+    }
+}
+
+/// How many of `changes` are negative and how many positive.
+fn signs(changes: impl Iterator<Item = f64>) -> (u64, u64) {
+    changes.fold((0, 0), |(down, up), c| {
+        (down + u64::from(c < 0.0), up + u64::from(c > 0.0))
+    })
 }
 
 /// The Fitts results.
@@ -362,6 +403,7 @@ fn quadrant_json(quadrants: &[Quadrant]) -> Vec<Value> {
                 "condition": q.condition, "id_bits": q.id_bits,
                 "slower_less_accurate": q.counts[0], "faster_less_accurate": q.counts[1],
                 "faster_more_accurate": q.counts[2], "slower_more_accurate": q.counts[3], "ties": q.counts[4],
+                "time_sign_p": q.time_sign_p(), "accuracy_sign_p": q.accuracy_sign_p(),
             })
         })
         .collect()
@@ -379,12 +421,15 @@ fn quadrant_table(name: &str, quadrants: &[Quadrant]) -> Table {
             "faster_more_accurate",
             "slower_more_accurate",
             "ties",
+            "time_sign_p",
+            "accuracy_sign_p",
         ]),
         rows: quadrants
             .iter()
             .map(|q| {
                 let mut r = vec![text(q.condition.clone()), opt(q.id_bits)];
                 r.extend(q.counts.iter().map(|&n| num(f64::from(n))));
+                r.extend([opt(q.time_sign_p()), opt(q.accuracy_sign_p())]);
                 r
             })
             .collect(),
