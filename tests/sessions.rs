@@ -349,6 +349,49 @@ fn a_torn_last_line_is_ignored_reported_and_the_session_resumes() {
     );
 }
 
+/// Killed after the last trial's log line but before its CSV rewrite: the
+/// log holds every trial and no `end`, the CSV lacks the last row. Resume
+/// rewrites the CSV from the log, so the row is not lost (seen once in a
+/// CI run of the discrimination kill test, before this).
+#[test]
+fn killed_between_the_last_trials_log_line_and_its_csv_row_the_resume_restores_the_row() {
+    let dir = tempfile::tempdir().unwrap();
+    assert!(
+        run(
+            dir.path(),
+            "magnitude-quick",
+            "t2",
+            &["--seed", "9", "--pace", "1000"]
+        )
+        .status
+        .success()
+    );
+    let csv = csvs(dir.path())[0].clone();
+    let reference = std::fs::read_to_string(&csv).unwrap();
+    let log = dir
+        .path()
+        .join("logs/study-magnitudequick_subject-t2_session-1_log.jsonl");
+    let text = std::fs::read_to_string(&log).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert!(
+        lines.last().unwrap().contains("\"end\""),
+        "{}",
+        lines.last().unwrap()
+    );
+    std::fs::write(&log, format!("{}\n", lines[..lines.len() - 1].join("\n"))).unwrap();
+    let rows: Vec<&str> = reference.lines().collect();
+    std::fs::write(&csv, format!("{}\n", rows[..rows.len() - 1].join("\n"))).unwrap();
+    let o = run(
+        dir.path(),
+        "magnitude-quick",
+        "t2",
+        &["--resume", "--pace", "1000"],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(std::fs::read_to_string(&csv).unwrap(), reference);
+    assert!(read_log(&log).unwrap().ended);
+}
+
 #[test]
 fn killed_at_random_moments_then_resumed_every_trial_is_logged_once_with_the_same_answers() {
     let (reference, dir) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());

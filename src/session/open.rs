@@ -222,7 +222,7 @@ impl Planned {
 
     /// Opens the session's log: a new session (header, empty CSV, dataset
     /// description) or the unfinished one (torn last line cut, a `resumed`
-    /// line appended).
+    /// line appended, the CSV rewritten from the log).
     ///
     /// # Errors
     /// The log exists (a new session never overwrites), or any I/O error.
@@ -234,6 +234,10 @@ impl Planned {
                     at_trial: read.next_trial(),
                     torn_bytes,
                 })?;
+                // The CSV follows the log: a kill between a trial's log
+                // line and its CSV rewrite left the CSV a trial short,
+                // which no later trial would mend after the last one.
+                replace_file(&files.csv, data_csv(read).as_bytes(), false)?;
                 Ok(OpenLog {
                     log,
                     streams: StreamRecorder::new(dir, &read.header, self.streams),
