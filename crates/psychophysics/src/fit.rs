@@ -161,11 +161,7 @@ pub fn log_likelihood(spec: &FitSpec, params: &Params, data: &[Block]) -> f64 {
     {
         return f64::NAN;
     }
-    let location = match spec.shape {
-        Shape::Weibull => threshold.ln(),
-        Shape::Logistic | Shape::CumulativeNormal => threshold,
-    };
-    problem.ll(location, slope, lapse)
+    problem.ll(spec.shape.to_w(threshold), slope, lapse)
 }
 
 /// The maximum-likelihood fit of `spec` to `data` (module docs: the
@@ -197,6 +193,14 @@ pub struct Interval {
     pub lo: f64,
     /// Upper end.
     pub hi: f64,
+}
+
+impl Interval {
+    /// Whether `x` lies in `[lo, hi]`.
+    #[must_use]
+    pub fn contains(&self, x: f64) -> bool {
+        self.lo <= x && x <= self.hi
+    }
 }
 
 /// A parametric bootstrap of a threshold ([`bootstrap_threshold`]).
@@ -353,10 +357,7 @@ pub fn profile_deviance(
     t: f64,
 ) -> Option<f64> {
     let (problem, ll_max, _) = profile_search(spec, fit, data, criterion)?;
-    let tau = match spec.shape {
-        Shape::Weibull => t.ln(),
-        Shape::Logistic | Shape::CumulativeNormal => t,
-    };
+    let tau = spec.shape.to_w(t);
     tau.is_finite()
         .then(|| 2.0 * (ll_max - problem.profile(tau, criterion)))
 }
@@ -399,14 +400,10 @@ pub fn profile_interval(
     };
     let (tau_lo, tau_hi) = problem.threshold_range(criterion);
     let ((lo, lo_open), (hi, hi_open)) = (end(tau_lo.min(tau)), end(tau_hi.max(tau)));
-    let x = |w: f64| match spec.shape {
-        Shape::Weibull => w.exp(),
-        Shape::Logistic | Shape::CumulativeNormal => w,
-    };
     Some(Profile {
         interval: Interval {
-            lo: x(lo),
-            hi: x(hi),
+            lo: spec.shape.x_of_w(lo),
+            hi: spec.shape.x_of_w(hi),
         },
         open: [lo_open, hi_open],
     })
@@ -436,10 +433,7 @@ fn profile_search(
         guess: spec.guess,
     }
     .threshold_at(criterion)?;
-    let tau = match spec.shape {
-        Shape::Weibull => t.ln(),
-        Shape::Logistic | Shape::CumulativeNormal => t,
-    };
+    let tau = spec.shape.to_w(t);
     if !tau.is_finite() {
         return None;
     }
@@ -623,10 +617,7 @@ impl Problem {
     /// The parameters at `u`.
     fn params(&self, u: &[f64; 3]) -> Params {
         Params {
-            threshold: match self.shape {
-                Shape::Weibull => u[0].exp(),
-                Shape::Logistic | Shape::CumulativeNormal => u[0],
-            },
+            threshold: self.shape.x_of_w(u[0]),
             slope: self.slope(u[1]),
             lapse: u[2],
         }
@@ -1273,6 +1264,23 @@ fn scan_and_refine(lo: f64, hi: f64, count: usize, f: &impl Fn(f64) -> f64) -> (
 }
 
 impl Shape {
+    /// A stimulus or location on the `w` axis (module docs): `ln x` for
+    /// the Weibull, `x` otherwise.
+    fn to_w(self, x: f64) -> f64 {
+        match self {
+            Shape::Weibull => x.ln(),
+            Shape::Logistic | Shape::CumulativeNormal => x,
+        }
+    }
+
+    /// [`Shape::to_w`]'s inverse.
+    fn x_of_w(self, w: f64) -> f64 {
+        match self {
+            Shape::Weibull => w.exp(),
+            Shape::Logistic | Shape::CumulativeNormal => w,
+        }
+    }
+
     /// The standard sigmoid's inverse: the `z` where [`Shape::sigmoid`]'s
     /// `G(z) = p`, for `p` in (0, 1).
     fn standard_inverse(self, p: f64) -> f64 {

@@ -467,7 +467,7 @@ fn the_bootstrap_95_percent_interval_covers_the_true_threshold_about_95_percent_
         assert_eq!(b.samples, 200);
         assert!(b.interval.lo <= b.interval.hi && b.sd > 0.0);
         failed += b.failed;
-        if b.interval.lo <= t_true && t_true <= b.interval.hi {
+        if b.interval.contains(t_true) {
             covered += 1;
         }
     }
@@ -662,7 +662,7 @@ fn the_profile_95_percent_interval_covers_the_true_threshold_about_95_percent_of
         let data = simulate(&truth, &xs, 30, &mut rng);
         let f = fit(&s, &data).unwrap();
         let p = profile_threshold(&s, &f, &data, 0.75, 0.95).unwrap();
-        covered += u32::from(p.interval.lo <= t_true && t_true <= p.interval.hi);
+        covered += u32::from(p.interval.contains(t_true));
     }
     let coverage = f64::from(covered) / f64::from(repetitions);
     eprintln!("profile coverage {covered}/{repetitions} = {coverage}");
@@ -744,9 +744,9 @@ fn on_staircase_tracks_the_profile_interval_covers_more_often_than_the_bootstrap
             let data = blocks(&answers);
             let f = fit(&s, &data).unwrap();
             let p = profile_threshold(&s, &f, &data, 0.75, 0.95).unwrap();
-            profile_covered += u32::from(p.interval.lo <= t_true && t_true <= p.interval.hi);
+            profile_covered += u32::from(p.interval.contains(t_true));
             if let Some(b) = bootstrap_threshold(&s, &f, &data, 0.75, 100, 0.95, &mut rng) {
-                bootstrap_covered += u32::from(b.interval.lo <= t_true && t_true <= b.interval.hi);
+                bootstrap_covered += u32::from(b.interval.contains(t_true));
             }
         }
         eprintln!(
