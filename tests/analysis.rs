@@ -717,3 +717,55 @@ fn statistics_that_cannot_be_computed_are_marked_n_a() {
     assert_eq!(s["fitts"]["quadrants"], serde_json::json!([]));
     assert!(s["fitts"]["regression"][0]["slope_s_per_bit"].is_null());
 }
+
+/// The display effect is a paired t test across participants of their
+/// first-minus-second display mean log answers, worked by hand: in log2
+/// units the differences (force minus tactile; alphabetical without logs)
+/// are 1, 2 and 3, so the mean is 2, the SD 1 and t = 2 sqrt(3) with 2 df,
+/// whose two-sided p is 1 - sqrt(6/7). A participant who answered on one
+/// display only is left out.
+#[test]
+fn the_display_effect_is_a_paired_t_test_across_participants() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rows = Vec::new();
+    for (p, display, answers) in [
+        ("A", "force", vec![2.0, 2.0]),
+        ("A", "tactile", vec![1.0, 1.0]),
+        ("B", "force", vec![4.0, 4.0]),
+        ("B", "tactile", vec![1.0, 1.0]),
+        ("C", "force", vec![8.0]),
+        ("C", "tactile", vec![1.0, 1.0]),
+        ("D", "tactile", vec![5.0, 7.0]),
+    ] {
+        for (mu_s, m) in [0.4, 0.5].into_iter().zip(answers) {
+            rows.push(magnitude_row(p, display, mu_s, m));
+        }
+    }
+    data(
+        dir.path(),
+        "study-fixture_subject-ABCD_session-1",
+        Kind::MagnitudeEstimation,
+        &rows,
+    );
+    let s = analyze(dir.path()).unwrap().summary;
+    let e = &s["magnitude_estimation"]["display_effect"];
+    assert_eq!(e["n"], 3);
+    assert_close(&e["ratio"], 4.0, "ratio");
+    assert_close(&e["t"], 2.0 * 3f64.sqrt(), "t");
+    assert_close(&e["p"], 1.0 - (6.0f64 / 7.0).sqrt(), "p");
+    let half = 4.302_652_729_911_275 / 3f64.sqrt();
+    assert_close(&e["ci_low"], 2f64.powf(2.0 - half), "ci_low");
+    assert_close(&e["ci_high"], 2f64.powf(2.0 + half), "ci_high");
+    // Alike differences have no spread: n/a, with the reason.
+    let dir = tempfile::tempdir().unwrap();
+    magnitude_fixture(dir.path());
+    let s = analyze(dir.path()).unwrap().summary;
+    assert!(s["magnitude_estimation"]["display_effect"]["p"].is_null());
+    assert!(
+        s["notes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|n| n.as_str().unwrap().contains("display_effect: n/a"))
+    );
+}

@@ -204,6 +204,20 @@ fn recover(method: serde_json::Value, truth: f64) -> Recovery {
         covered += usize::from(covers(&f["weber_ci"]));
         covered_profile += usize::from(covers(&f["weber_ci_profile"]));
     }
+    // The level's group mean and its 95% t interval across participants
+    // (49 df: t = 2.009575237129235).
+    let level = &analysis.summary["discrimination"]["levels"][0];
+    let n = weber.len() as f64;
+    let mean = weber.iter().sum::<f64>() / n;
+    let sd = (weber.iter().map(|w| (w - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    let half = 2.009_575_237_129_235 * sd / n.sqrt();
+    let ci = level["weber_mean_ci"].as_array().unwrap();
+    for (got, want) in ci.iter().zip([mean - half, mean + half]) {
+        assert!(
+            (got.as_f64().unwrap() - want).abs() < 1e-9,
+            "{got} vs {want}"
+        );
+    }
     let mut answers = Vec::new();
     for log in common::session_logs(dir.path()) {
         let read = read_log(&log).unwrap();

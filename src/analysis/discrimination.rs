@@ -309,6 +309,8 @@ fn tables(tracks: &[TrackFit], groups: &[Value]) -> Vec<Table> {
             "level",
             "participants",
             "weber_mean",
+            "weber_mean_lo",
+            "weber_mean_hi",
             "weber_sd",
             "weber_median",
             "jnd_mean",
@@ -322,6 +324,8 @@ fn tables(tracks: &[TrackFit], groups: &[Value]) -> Vec<Table> {
                     num(g["level"].as_f64().unwrap_or(f64::NAN)),
                     num(g["participants"].as_f64().unwrap_or(0.0)),
                     opt(g["weber_mean"].as_f64()),
+                    opt(g["weber_mean_ci"][0].as_f64()),
+                    opt(g["weber_mean_ci"][1].as_f64()),
                     opt(g["weber_sd"].as_f64()),
                     opt(g["weber_median"].as_f64()),
                     opt(g["jnd_mean"].as_f64()),
@@ -339,7 +343,9 @@ fn proportion(answers: &[(f64, bool)]) -> Option<f64> {
 }
 
 /// Per level (in the design's order): the participants with a Weber
-/// fraction, their mean, SD and median, and the mean JND.
+/// fraction, their mean with its 95% t interval (across participants; null
+/// below 2 participants or without spread), SD and median, and the mean
+/// JND.
 fn group_summary(design: &DiscriminationDesign, tracks: &[TrackFit]) -> Vec<Value> {
     design
         .levels
@@ -372,10 +378,12 @@ fn group_summary(design: &DiscriminationDesign, tracks: &[TrackFit]) -> Vec<Valu
             });
             #[expect(clippy::cast_precision_loss, reason = "participant counts")]
             let jnd_mean = (!jnds.is_empty()).then(|| jnds.iter().sum::<f64>() / jnds.len() as f64);
+            let ci = super::stats::one_sample_t(&webers).map(|t| [t.ci_low, t.ci_high]);
             json!({
                 "level": level,
                 "participants": webers.len(),
                 "weber_mean": mean,
+                "weber_mean_ci": ci,
                 "weber_sd": sd,
                 "weber_median": median,
                 "jnd_mean": jnd_mean,

@@ -19,6 +19,13 @@
 //!   each delta_mu series. The first display is the protocol's first set
 //!   (from the session logs). Without logs, the displays go in alphabetical
 //!   order.
+//! - `display_effect`: whether the displays differ in felt strength, tested
+//!   across participants: each participant's difference of mean log answer
+//!   (first display minus second; the participant's own modulus cancels),
+//!   then a one-sample two-sided t test of those differences against 0
+//!   (n - 1 degrees of freedom): `{ratio, ci_low, ci_high, t, p, n}`, the
+//!   ratio and its 95% CI as exp of the mean difference and its t interval.
+//!   Participants who answered on one display only are left out.
 //! - `trends` (extra): per display and normalization, the least-squares slope
 //!   of value against mu_s and against mu_k, with Pearson r, over every
 //!   stimulus (where mu_s and mu_k move together, so they cannot be told
@@ -32,7 +39,7 @@ use std::collections::HashMap;
 
 use serde_json::{Value, json};
 
-use super::stats::{GeoSummary, geometric_mean, linear_fit, log_summary, pearson};
+use super::stats::{GeoSummary, geometric_mean, linear_fit, log_summary, one_sample_t, pearson};
 use super::{Cell, Rows, Table, num, opt, text};
 use crate::problem::Problem;
 
@@ -236,6 +243,53 @@ fn delta_mu_series(means: &[GeoMean]) -> Vec<f64> {
     series.sort_by(f64::total_cmp);
     series.dedup();
     series
+}
+
+/// The display effect (module docs): a paired t test across participants
+/// of their first-display minus second-display mean log answers.
+fn display_effect(a: &Answers, displays: &[String], notes: &mut Vec<String>) -> Value {
+    let code = |name: &String| a.display_names.iter().position(|d| d == name);
+    let (Some(first), Some(second)) = (
+        displays.first().and_then(code),
+        displays.get(1).and_then(code),
+    ) else {
+        return Value::Null;
+    };
+    // Per participant: [sum, count] of logs on the first and second display.
+    let mut sums = vec![[[0.0, 0.0]; 2]; a.participants];
+    for i in 0..a.ln.len() {
+        let d = a.display[i] as usize;
+        let slot = if d == first {
+            0
+        } else if d == second {
+            1
+        } else {
+            continue;
+        };
+        let s = &mut sums[a.participant[i] as usize][slot];
+        s[0] += a.ln[i];
+        s[1] += 1.0;
+    }
+    let differences: Vec<f64> = sums
+        .iter()
+        .filter(|[f, s]| f[1] > 0.0 && s[1] > 0.0)
+        .map(|[f, s]| f[0] / f[1] - s[0] / s[1])
+        .collect();
+    let test = one_sample_t(&differences);
+    if test.is_none() {
+        notes.push(format!(
+            "magnitude_estimation.display_effect: n/a: {} participant(s) answered on both displays (2 or more, not all alike, needed)",
+            differences.len()
+        ));
+    }
+    json!({
+        "ratio": test.map(|t| t.mean.exp()),
+        "ci_low": test.map(|t| t.ci_low.exp()),
+        "ci_high": test.map(|t| t.ci_high.exp()),
+        "t": test.map(|t| t.t),
+        "p": test.map(|t| t.p),
+        "n": differences.len(),
+    })
 }
 
 /// Per delta_mu series: Pearson r between the two displays' per_display
@@ -463,6 +517,11 @@ pub fn analyze(rows: &Rows, order: &[String]) -> Result<Magnitude, Problem> {
             .flatten()
     };
     let display_ratio = ratio(None);
+    let display_effect = if displays.len() == 2 {
+        display_effect(&answers, &displays, &mut notes)
+    } else {
+        Value::Null
+    };
     let ratio_by_delta_mu: Vec<Value> = delta_mu_series(&means)
         .iter()
         .map(|&dm| json!({"delta_mu": dm, "ratio": ratio(Some(dm))}))
@@ -478,6 +537,7 @@ pub fn analyze(rows: &Rows, order: &[String]) -> Result<Magnitude, Problem> {
         "correlations": correlations,
         "display_ratio": display_ratio,
         "display_ratio_by_delta_mu": ratio_by_delta_mu,
+        "display_effect": display_effect,
         "trends": trends,
         "drivers": drivers(&means, &displays),
         "participants": participants,

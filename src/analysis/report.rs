@@ -243,6 +243,19 @@ pub fn magnitude_section(m: &Magnitude) -> String {
         esc(&m.displays.join(", ")),
         ratio.map_or("n/a".into(), fmt)
     );
+    let effect = &m.summary["display_effect"];
+    if let (Some(r), Some(p)) = (effect["ratio"].as_f64(), effect["p"].as_f64()) {
+        let _ = write!(
+            s,
+            "<p>Display effect across participants (paired t test of each participant's first-over-second display mean log answer): ratio {} (95% CI {} to {}), t = {}, p = {}, n = {}.</p>",
+            fmt(r),
+            effect["ci_low"].as_f64().map_or("n/a".into(), fmt),
+            effect["ci_high"].as_f64().map_or("n/a".into(), fmt),
+            effect["t"].as_f64().map_or("n/a".into(), fmt),
+            fmt(p),
+            effect["n"]
+        );
+    }
     s.push_str("<div class=\"figs\">");
     for d in &m.displays {
         for norm in ["pooled", "per_display"] {

@@ -115,6 +115,44 @@ pub fn log_summary(ln: &[f64]) -> Option<GeoSummary> {
     })
 }
 
+/// A one-sample t test of a mean against 0.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MeanTest {
+    /// The mean.
+    pub mean: f64,
+    /// Number of values.
+    pub n: usize,
+    /// t = mean / (sd / sqrt(n)).
+    pub t: f64,
+    /// Two-sided p (Student t, n - 1 degrees of freedom).
+    pub p: f64,
+    /// 95% confidence interval of the mean, low end.
+    pub ci_low: f64,
+    /// Its high end.
+    pub ci_high: f64,
+}
+
+/// One-sample two-sided t test of `xs` against a mean of 0; `None` for
+/// fewer than 2 values or no spread (an SD below 1e-12 of the mean's size:
+/// equal values that rounding made unequal).
+#[must_use]
+pub fn one_sample_t(xs: &[f64]) -> Option<MeanTest> {
+    let m = mean(xs)?;
+    let sd = sample_sd(xs).filter(|sd| *sd > 1e-12 * m.abs().max(1e-300))?;
+    let se = sd / (xs.len() as f64).sqrt();
+    let dist = StudentsT::new(0.0, 1.0, (xs.len() - 1) as f64).ok()?;
+    let t = m / se;
+    let half = dist.inverse_cdf(0.975) * se;
+    Some(MeanTest {
+        mean: m,
+        n: xs.len(),
+        t,
+        p: (2.0 * (1.0 - dist.cdf(t.abs()))).min(1.0),
+        ci_low: m - half,
+        ci_high: m + half,
+    })
+}
+
 /// Ordinary least squares of y on x.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Fit {
