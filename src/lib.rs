@@ -16,6 +16,7 @@ pub mod gui;
 pub mod hand;
 pub mod identify;
 pub mod kinds;
+pub mod parallel;
 pub mod participant;
 pub mod problem;
 pub mod protocol;

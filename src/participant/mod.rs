@@ -153,6 +153,9 @@ pub struct SimParticipant {
     rng: ChaCha8Rng,
     /// What it remembers of the desk (perceived features), once it slid.
     desk: Option<Features>,
+    /// A set paired-comparison preference (an assumed effect, see
+    /// [`Population::paired_preference`]), not a percept.
+    preference: Option<population::PairedPreference>,
 }
 
 #[derive(Debug, Clone)]
@@ -236,6 +239,9 @@ struct Slide {
     strengths: [f64; 2],
     /// A forced choice (which felt like more friction), not nearness.
     forced: bool,
+    /// With a set preference: which stimulus (0 first, 1 second presented)
+    /// is the preferred condition, if either is.
+    preferred: Option<usize>,
     answered: bool,
 }
 
@@ -256,6 +262,7 @@ impl SimParticipant {
             segment: 0,
             rng: ChaCha8Rng::seed_from_u64(seed),
             desk: None,
+            preference: population.paired_preference.clone(),
         }
     }
 
@@ -329,6 +336,7 @@ impl SimParticipant {
                 active: 0, forced, ..
             }) if !matches!(self.behaviour, Behaviour::Slide(_)) => {
                 self.start_trial(trial);
+                let preferred = self.preferred_stimulus(trial);
                 self.behaviour = Behaviour::Slide(Slide {
                     stimulus: 0,
                     start: now,
@@ -337,6 +345,7 @@ impl SimParticipant {
                     distances: [0.0; 2],
                     strengths: [0.0; 2],
                     forced: forced.is_some(),
+                    preferred,
                     answered: false,
                 });
                 Reaction {
@@ -531,11 +540,7 @@ impl SimParticipant {
             };
         }
         sl.answered = true;
-        let choice = if sl.forced {
-            Self::stronger(sl.strengths)
-        } else {
-            self.choose(sl.distances)
-        };
+        let choice = self.slide_choice(sl);
         Reaction {
             inputs: vec![Input::Answer(Answer::Paired(choice))],
             reset_to: None,
@@ -560,11 +565,57 @@ impl SimParticipant {
     }
 
     fn paired_choice(&mut self) -> Choice {
-        match &self.behaviour {
-            Behaviour::Slide(sl) if sl.forced => Self::stronger(sl.strengths),
-            Behaviour::Slide(sl) => self.choose(sl.distances),
-            _ => self.choose([0.0, 0.0]),
+        match std::mem::replace(&mut self.behaviour, Behaviour::Idle) {
+            Behaviour::Slide(sl) => {
+                let choice = self.slide_choice(&sl);
+                self.behaviour = Behaviour::Slide(sl);
+                choice
+            }
+            other => {
+                self.behaviour = other;
+                self.choose([0.0, 0.0])
+            }
         }
+    }
+
+    /// The answer to a slide: the stronger stimulus (forced choice), the
+    /// set preference if the population has one for this pair, else the
+    /// one nearer the desk.
+    fn slide_choice(&mut self, sl: &Slide) -> Choice {
+        match (sl.forced, sl.preferred) {
+            (true, _) => Self::stronger(sl.strengths),
+            (false, Some(i)) => {
+                let p = self.preference.as_ref().map_or(0.5, |pref| pref.p);
+                let pick = if self.rng.random::<f64>() < p {
+                    i
+                } else {
+                    1 - i
+                };
+                if pick == 0 {
+                    Choice::First
+                } else {
+                    Choice::Second
+                }
+            }
+            (false, None) => self.choose(sl.distances),
+        }
+    }
+
+    /// With a set preference, which of the trial's two presented
+    /// conditions (0 or 1) it names; `None` without one, or when the pair
+    /// lacks it.
+    fn preferred_stimulus(&self, trial: Option<&PlannedTrial>) -> Option<usize> {
+        let pref = self.preference.as_ref()?;
+        let Some(PlannedTrial {
+            spec: crate::kinds::TrialSpec::PairedComparison(t),
+            ..
+        }) = trial
+        else {
+            return None;
+        };
+        [&t.first.id, &t.second.id]
+            .iter()
+            .position(|id| **id == pref.condition)
     }
 
     /// A forced choice: the stimulus perceived as more friction (the first

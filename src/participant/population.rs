@@ -10,7 +10,7 @@ pub type Range = [f64; 2];
 /// The simulated population: the ranges participants' traits are drawn
 /// from, and the constants no source gives (free; swept in
 /// `analysis/claims.md`). SI units.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct Population {
     /// Hand (and arm) mass moving with the device, kg. [0.3, 1.0]: of the
@@ -63,6 +63,26 @@ pub struct Population {
     pub desk_mu: f64,
     /// Normal force on the desk, N (seed 000's 3 N).
     pub desk_normal_n: f64,
+    /// An assumed effect, not a mechanism: when set, in a paired comparison
+    /// the participant still explores both renderings but then calls the
+    /// named condition nearer with probability `p` and the other one
+    /// otherwise (never "no difference"); a pair without that condition is
+    /// answered from the percept. For power planning under an effect size
+    /// the experimenter assumes, and for known-answer tests of it (power is
+    /// then a binomial tail). Absent by default, and never set in the
+    /// reproductions (`analysis/`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub paired_preference: Option<PairedPreference>,
+}
+
+/// A set preference in paired comparisons ([`Population::paired_preference`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PairedPreference {
+    /// The preferred condition's id.
+    pub condition: String,
+    /// Probability of calling it nearer, in [0, 1].
+    pub p: f64,
 }
 
 impl Default for Population {
@@ -85,6 +105,7 @@ impl Default for Population {
             no_difference_jnd: 1.0,
             desk_mu: 0.6,
             desk_normal_n: 3.0,
+            paired_preference: None,
         }
     }
 }
@@ -134,6 +155,20 @@ impl Population {
         for (name, v, max) in scalars {
             if !(v.is_finite() && v >= 0.0 && v <= max) {
                 out.push((name.to_owned(), format!("must be in [0, {max}], got {v}")));
+            }
+        }
+        if let Some(pref) = &self.paired_preference {
+            if !(pref.p.is_finite() && (0.0..=1.0).contains(&pref.p)) {
+                out.push((
+                    "paired_preference.p".to_owned(),
+                    format!("must be in [0, 1], got {}", pref.p),
+                ));
+            }
+            if pref.condition.is_empty() {
+                out.push((
+                    "paired_preference.condition".to_owned(),
+                    "must name a condition".to_owned(),
+                ));
             }
         }
         out

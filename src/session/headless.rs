@@ -39,7 +39,7 @@ pub fn sim_participant(h: &Header) -> SimParticipant {
     SimParticipant::new(
         h.plan_seed,
         &h.participant,
-        &h.population.unwrap_or_default(),
+        &h.population.clone().unwrap_or_default(),
     )
 }
 
@@ -219,54 +219,30 @@ pub fn simulate_participants(
     sim: &Simulation<'_>,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<Vec<SessionOutcome>, SessionError> {
-    use std::sync::Mutex;
-    use std::sync::atomic::{AtomicBool, AtomicU32, AtomicUsize, Ordering};
-    let (next, done, failed) = (
-        AtomicU32::new(0),
-        AtomicUsize::new(0),
-        AtomicBool::new(false),
-    );
-    let outcomes: Mutex<Vec<(u32, Result<SessionOutcome, SessionError>)>> = Mutex::default();
-    let work = || {
-        while !failed.load(Ordering::Relaxed) {
-            let i = next.fetch_add(1, Ordering::Relaxed);
-            if i >= sim.participants {
-                break;
-            }
-            let id = format!("sim-{:03}", i + 1);
-            let req = SessionRequest {
-                protocol: sim.protocol,
-                protocol_bytes: sim.protocol_bytes,
-                participant: &id,
-                participant_index: Some(i),
-                seed: participant_seed(sim.seed, i),
-                resume: false,
-                pace: sim.pace,
-                device: &super::DeviceChoice::Simulated,
-                streams: sim.streams,
-                population: sim.population,
-            };
-            let mut reported = 0;
-            let outcome = run_simulated(dir, &req, &mut |trial, _| {
-                let new = trial.saturating_sub(reported);
-                reported = reported.max(trial);
-                progress(done.fetch_add(new, Ordering::Relaxed) + new);
-            });
-            failed.fetch_or(outcome.is_err(), Ordering::Relaxed);
-            if let Ok(mut list) = outcomes.lock() {
-                list.push((i, outcome));
-            }
-        }
-    };
-    std::thread::scope(|scope| {
-        for _ in 1..sim.jobs.min(sim.participants as usize) {
-            scope.spawn(work);
-        }
-        work();
-    });
-    let mut list = outcomes
-        .into_inner()
-        .unwrap_or_else(std::sync::PoisonError::into_inner);
-    list.sort_by_key(|(i, _)| *i);
-    list.into_iter().map(|(_, outcome)| outcome).collect()
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let done = AtomicUsize::new(0);
+    let participants: Vec<u32> = (0..sim.participants).collect();
+    crate::parallel::run(&participants, sim.jobs, |&i| {
+        let id = format!("sim-{:03}", i + 1);
+        let req = SessionRequest {
+            protocol: sim.protocol,
+            protocol_bytes: sim.protocol_bytes,
+            participant: &id,
+            participant_index: Some(i),
+            seed: participant_seed(sim.seed, i),
+            resume: false,
+            pace: sim.pace,
+            device: &super::DeviceChoice::Simulated,
+            streams: sim.streams,
+            population: sim.population,
+        };
+        let mut reported = 0;
+        run_simulated(dir, &req, &mut |trial, _| {
+            let new = trial.saturating_sub(reported);
+            reported = reported.max(trial);
+            progress(done.fetch_add(new, Ordering::Relaxed) + new);
+        })
+    })
+    .into_iter()
+    .collect()
 }

@@ -161,7 +161,7 @@ pub fn plan(
         device: req.device.label(),
         responder: responder.into(),
         planned_trials: source.planned().unwrap_or(0),
-        population: req.population.copied(),
+        population: req.population.cloned(),
     };
     Ok(Planned {
         source,
