@@ -18,6 +18,7 @@ pub mod identify;
 pub mod kinds;
 pub mod parallel;
 pub mod participant;
+pub mod power;
 pub mod problem;
 pub mod protocol;
 pub mod render;

@@ -14,14 +14,14 @@ use super::fitts::Fitts;
 use super::magnitude::Magnitude;
 use super::paired::Paired;
 
-fn esc(s: &str) -> String {
+pub(crate) fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
         .replace('"', "&quot;")
 }
 
-fn fmt(x: f64) -> String {
+pub(crate) fn fmt(x: f64) -> String {
     if x == 0.0 || (1e-3..1e6).contains(&x.abs()) {
         format!("{x:.4}")
     } else {
@@ -73,20 +73,33 @@ fn range(values: impl Iterator<Item = f64>, include_zero: bool) -> std::ops::Ran
     (lo - pad)..(hi + pad)
 }
 
-/// A line chart: one line (with points) per series.
-fn line_chart(
+/// A line chart: one line (with points) per series, and straight lines
+/// `fits` (x0, y0, x1, y1).
+pub(crate) fn line_chart(
     title: &str,
     x_label: &str,
     y_label: &str,
     series: &[(String, Vec<(f64, f64)>)],
     fits: &[(f64, f64, f64, f64)],
 ) -> String {
+    let ys = range(series.iter().flat_map(|s| s.1.iter().map(|p| p.1)), false);
+    line_chart_in(title, x_label, y_label, series, fits, ys)
+}
+
+/// [`line_chart`] over the y range `ys`.
+pub(crate) fn line_chart_in(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[(String, Vec<(f64, f64)>)],
+    fits: &[(f64, f64, f64, f64)],
+    ys: std::ops::Range<f64>,
+) -> String {
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (460, 320)).into_drawing_area();
         let _ = root.fill(&WHITE);
         let xs = range(series.iter().flat_map(|s| s.1.iter().map(|p| p.0)), false);
-        let ys = range(series.iter().flat_map(|s| s.1.iter().map(|p| p.1)), false);
         let Ok(mut chart) = ChartBuilder::on(&root)
             .caption(title, ("sans-serif", 15))
             .margin(8)

@@ -5,8 +5,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::{
-    DeviceChoice, EXIT_FAILURE, Failure, GuiArgs, IdentifyArgs, RenderArgs, ResponderChoice,
-    RunArgs, SimulateArgs, UserError, device_failure, emit, say,
+    DeviceChoice, EXIT_FAILURE, Failure, GuiArgs, IdentifyArgs, PowerArgs, RenderArgs,
+    ResponderChoice, RunArgs, SimulateArgs, UserError, device_failure, emit, say,
 };
 use crate::friction::Validate;
 use crate::friction::{ForceLimit, ModelParams};
@@ -404,6 +404,20 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
     ))
 }
 
+/// Reads `--population FILE` if given; its problems go to `errors`.
+fn read_population(
+    path: Option<&Path>,
+    errors: &mut Vec<UserError>,
+) -> Option<crate::participant::Population> {
+    match crate::participant::population::read(path?) {
+        Ok(p) => Some(p),
+        Err(e) => {
+            errors.extend(e);
+            None
+        }
+    }
+}
+
 pub(super) fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
     let mut errors = Vec::new();
     if args.participants == 0 {
@@ -417,18 +431,7 @@ pub(super) fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
     {
         errors.extend(e);
     }
-    let population = match args
-        .population
-        .as_deref()
-        .map(crate::participant::population::read)
-    {
-        Some(Err(e)) => {
-            errors.extend(e);
-            None
-        }
-        Some(Ok(p)) => Some(p),
-        None => None,
-    };
+    let population = read_population(args.population.as_deref(), &mut errors);
     let (protocol, bytes) = match load_protocol(&args.protocol) {
         Ok(ok) if errors.is_empty() => ok,
         Ok(_) => return Err(errors.into()),
@@ -437,6 +440,12 @@ pub(super) fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
             return Err(errors.into());
         }
     };
+    if let (Some(pop), Some(file)) = (&population, &args.population) {
+        let problems = preference_problems(pop, &protocol, file);
+        if !problems.is_empty() {
+            return Err(problems.into());
+        }
+    }
     let dir = results::ResultsDir::new(&args.out);
     let planned = crate::kinds::source(&protocol, 0, 0).planned().unwrap_or(0) as u64;
     let bar = indicatif::ProgressBar::new(planned * u64::from(args.participants));
@@ -479,6 +488,186 @@ pub(super) fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
         simulated / elapsed.max(1e-9),
         dir.root().display()
     ))
+}
+
+impl From<crate::power::PowerError> for Failure {
+    fn from(e: crate::power::PowerError) -> Self {
+        use crate::power::PowerError;
+        match e {
+            PowerError::Input(errors) => errors.into(),
+            PowerError::Io(e) => Failure {
+                code: EXIT_FAILURE,
+                errors: vec![e],
+            },
+            PowerError::Session(e) => e.into(),
+        }
+    }
+}
+
+/// A population's problems with the protocol: a paired preference names
+/// one of a paired comparison's conditions.
+fn preference_problems(
+    population: &crate::participant::Population,
+    protocol: &Protocol,
+    file: &Path,
+) -> Vec<UserError> {
+    let Some(pref) = &population.paired_preference else {
+        return Vec::new();
+    };
+    let place = format!("{}: $.paired_preference.condition", file.display());
+    match &protocol.design {
+        crate::kinds::Design::PairedComparison(d) => {
+            if d.conditions.iter().any(|c| c.id == pref.condition) {
+                Vec::new()
+            } else {
+                vec![UserError::new(
+                    place,
+                    format!(
+                        "'{}' is not a condition of protocol '{}' ({})",
+                        pref.condition,
+                        protocol.id,
+                        d.conditions
+                            .iter()
+                            .map(|c| c.id.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                )]
+            }
+        }
+        _ => vec![UserError::new(
+            place,
+            format!(
+                "a paired preference, but protocol '{}' is not a paired comparison",
+                protocol.id
+            ),
+        )],
+    }
+}
+
+pub(super) fn power_command(args: &PowerArgs) -> Result<(), Failure> {
+    use crate::power::{Plan, PlanHeader, Shard};
+    let mut errors = Vec::new();
+    if args.jobs == Some(0) {
+        errors.push(UserError::new("--jobs", "must be at least 1"));
+    }
+    let shard = match &args.shard {
+        Some(text) => Shard::parse(text, "--shard").map(Some),
+        None => Shard::from_slurm(|name| std::env::var(name).ok()),
+    };
+    let shard = match shard {
+        Ok(s) => s.unwrap_or(Shard::ALL),
+        Err(e) => {
+            errors.push(e);
+            Shard::ALL
+        }
+    };
+    let population = read_population(args.population.as_deref(), &mut errors);
+    let loaded = load_protocol(&args.protocol)
+        .map_err(|e| errors.extend(e))
+        .ok();
+    let (Some((protocol, bytes)), true) = (loaded, errors.is_empty()) else {
+        return Err(errors.into());
+    };
+    if let (Some(pop), Some(file)) = (&population, &args.population) {
+        errors.extend(preference_problems(pop, &protocol, file));
+    }
+    let header = PlanHeader {
+        protocol: protocol.id.clone(),
+        kind: protocol.design.kind().as_str().to_owned(),
+        protocol_sha256: crate::results::sha256_hex(&bytes),
+        participants: args.participants.clone(),
+        studies: args.studies,
+        seed: args.seed,
+        alpha: args.alpha,
+        target_power: args.power,
+        max_ci_width: args.max_ci_width,
+        population: population.filter(|p| *p != crate::participant::Population::default()),
+    };
+    errors.extend(header.problems());
+    if !errors.is_empty() {
+        return Err(errors.into());
+    }
+    let plan = Plan {
+        header,
+        protocol: &protocol,
+        protocol_bytes: &bytes,
+    };
+    let jobs = args
+        .jobs
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, std::num::NonZero::get));
+    let bar = indicatif::ProgressBar::new(0);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{bar:40} {pos}/{len} studies, ETA {eta} [{elapsed_precise}]",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let wall = std::time::Instant::now();
+    let outcome = crate::power::run_shard(&plan, shard, &args.out, jobs, &|done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    })?;
+    bar.finish_and_clear();
+    let elapsed = wall.elapsed().as_secs_f64();
+    let per_study = if outcome.ran > 0 {
+        format!(
+            ", {:.3} s per study ({:.3} s of one thread's time)",
+            elapsed / outcome.ran as f64,
+            elapsed * jobs.min(outcome.ran) as f64 / outcome.ran as f64
+        )
+    } else {
+        String::new()
+    };
+    emit(&format!(
+        "power: shard {}/{} of '{}': {} studies run, {} found done, in {elapsed:.2} s on {jobs} thread(s){per_study} -> {}\n",
+        shard.k,
+        shard.n,
+        protocol.id,
+        outcome.ran,
+        outcome.resumed,
+        outcome.file.display()
+    ))?;
+    if shard.n == 1 {
+        let power = crate::power::summarize(&plan.header, &outcome.studies);
+        crate::power::write(&args.out, &power)?;
+        report_power(&args.out, &power)?;
+    }
+    Ok(())
+}
+
+/// Prints where power.json went and each test's smallest sample size.
+fn report_power(out: &Path, power: &serde_json::Value) -> Result<(), Failure> {
+    let tests = power["tests"].as_array().map_or(&[][..], Vec::as_slice);
+    let reached = tests.iter().filter(|t| t["smallest_n"].is_u64()).count();
+    let mut text = format!(
+        "wrote {} and power.html: {} tests, {reached} reach power {} within the sizes\n",
+        out.join("power.json").display(),
+        tests.len(),
+        power["plan"]["target_power"]
+    );
+    for t in tests.iter().take(12) {
+        let _ = writeln!(
+            text,
+            "  {}: smallest n {}",
+            t["name"].as_str().unwrap_or("?"),
+            t["smallest_n"]
+                .as_u64()
+                .map_or_else(|| "not reached".to_owned(), |n| n.to_string())
+        );
+    }
+    if tests.len() > 12 {
+        let _ = writeln!(text, "  ... and {} more in power.json", tests.len() - 12);
+    }
+    emit(&text)
+}
+
+pub(super) fn power_merge_command(dirs: &[PathBuf], out: Option<&Path>) -> Result<(), Failure> {
+    let (plan, studies) = crate::power::merge(dirs)?;
+    let out = out.map_or_else(|| dirs[0].clone(), Path::to_path_buf);
+    let power = crate::power::summarize(&plan, &studies);
+    crate::power::write(&out, &power)?;
+    report_power(&out, &power)
 }
 
 /// Every model's and scenario's default parameters, pretty JSON.

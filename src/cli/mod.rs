@@ -16,8 +16,8 @@ mod commands;
 
 use commands::{
     analyze_command, claims_command, emulator_command, firmware_qemu_command, gui_command,
-    identify_command, models_json, ports_command, render_command, run_command, simulate_command,
-    validate_command,
+    identify_command, models_json, ports_command, power_command, power_merge_command,
+    render_command, run_command, simulate_command, validate_command,
 };
 
 /// `--device`: `sim` (the simulated apparatus) or a serial port's path.
@@ -89,6 +89,22 @@ enum Command {
     /// Runs N whole sessions with simulated participants on the simulated
     /// device.
     Simulate(SimulateArgs),
+    /// Power by simulation: replays whole studies at each sample size with
+    /// simulated participants, analyses each as `analyze` does, and writes
+    /// power.json and power.html (with `--shard`, or in a Slurm array, only
+    /// that shard's power-shard-K-of-N.json; `power-merge` combines them).
+    Power(PowerArgs),
+    /// Combines the shards of a power run (power-shard-K-of-N.json in the
+    /// folders) into power.json and power.html, byte-identical to an
+    /// unsharded run; refuses a missing or duplicated shard.
+    PowerMerge {
+        /// Folders holding the shards.
+        #[arg(required = true)]
+        dirs: Vec<PathBuf>,
+        /// Where to write (default: the first folder).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Reads a results folder and writes summary.json, report.html and the
     /// tables (CSV and Parquet).
     Analyze {
@@ -269,6 +285,47 @@ struct SimulateArgs {
 }
 
 #[derive(Debug, clap::Args)]
+struct PowerArgs {
+    /// The protocol file.
+    protocol: PathBuf,
+    /// Sample sizes, increasing, comma separated.
+    #[arg(long, value_delimiter = ',', default_value = "4,6,8,12,16,20")]
+    participants: Vec<u32>,
+    /// Studies replayed per sample size.
+    #[arg(long, default_value_t = 1000)]
+    studies: u32,
+    /// Plan seed: study s's participants derive from it and s alone.
+    #[arg(long)]
+    seed: u64,
+    /// Significance level.
+    #[arg(long, default_value_t = 0.05)]
+    alpha: f64,
+    /// The power a sample size must reach to be reported as enough.
+    #[arg(long, default_value_t = 0.8)]
+    power: f64,
+    /// A confidence interval (discrimination: of the group mean Weber
+    /// fraction) reaches its target at most this wide.
+    #[arg(long, default_value_t = 0.05)]
+    max_ci_width: f64,
+    /// Output folder.
+    #[arg(long)]
+    out: PathBuf,
+    /// Run only shard K of N (0-based), writing power-shard-K-of-N.json.
+    /// Default: from SLURM_ARRAY_TASK_ID/SLURM_ARRAY_TASK_COUNT in a Slurm
+    /// array, else the whole plan.
+    #[arg(long, value_name = "K/N")]
+    shard: Option<String>,
+    /// Studies replayed at once, one per thread (default: every core). The
+    /// numbers are the same for any value.
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// The simulated participants' population (as `simulate --population`);
+    /// its `paired_preference` sets an assumed paired-comparison effect.
+    #[arg(long)]
+    population: Option<PathBuf>,
+}
+
+#[derive(Debug, clap::Args)]
 struct RenderArgs {
     /// Friction model: god-object-constant, god-object-time-varying,
     /// stick-slip-tactile, stick-slip-force, karnopp, dahl, viscous, none.
@@ -324,6 +381,8 @@ pub fn main() -> ExitCode {
         Command::Run(args) => run_command(&args),
         Command::Simulate(args) => simulate_command(&args),
         Command::Analyze { dir, out } => analyze_command(&dir, out.as_deref()),
+        Command::Power(args) => power_command(&args),
+        Command::PowerMerge { dirs, out } => power_merge_command(&dirs, out.as_deref()),
         Command::Claims {
             dir,
             fitts_protocol,
