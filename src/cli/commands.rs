@@ -504,45 +504,17 @@ impl From<crate::power::PowerError> for Failure {
     }
 }
 
-/// A population's problems with the protocol: a paired preference names
-/// one of a paired comparison's conditions.
+/// A population's problems with the protocol, located in its file.
 fn preference_problems(
     population: &crate::participant::Population,
     protocol: &Protocol,
     file: &Path,
 ) -> Vec<UserError> {
-    let Some(pref) = &population.paired_preference else {
-        return Vec::new();
-    };
-    let place = format!("{}: $.paired_preference.condition", file.display());
-    match &protocol.design {
-        crate::kinds::Design::PairedComparison(d) => {
-            if d.conditions.iter().any(|c| c.id == pref.condition) {
-                Vec::new()
-            } else {
-                vec![UserError::new(
-                    place,
-                    format!(
-                        "'{}' is not a condition of protocol '{}' ({})",
-                        pref.condition,
-                        protocol.id,
-                        d.conditions
-                            .iter()
-                            .map(|c| c.id.as_str())
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    ),
-                )]
-            }
-        }
-        _ => vec![UserError::new(
-            place,
-            format!(
-                "a paired preference, but protocol '{}' is not a paired comparison",
-                protocol.id
-            ),
-        )],
-    }
+    population
+        .protocol_problems(protocol)
+        .into_iter()
+        .map(|(field, what)| UserError::new(format!("{}: $.{field}", file.display()), what))
+        .collect()
 }
 
 pub(super) fn power_command(args: &PowerArgs) -> Result<(), Failure> {

@@ -173,6 +173,37 @@ impl Population {
         }
         out
     }
+
+    /// Its problems with `protocol`, as (field, what): a paired preference
+    /// must name one of a paired comparison's conditions.
+    #[must_use]
+    pub fn protocol_problems(&self, protocol: &crate::protocol::Protocol) -> Vec<(String, String)> {
+        let Some(pref) = &self.paired_preference else {
+            return Vec::new();
+        };
+        let what = match &protocol.design {
+            crate::kinds::Design::PairedComparison(d) => {
+                if d.conditions.iter().any(|c| c.id == pref.condition) {
+                    return Vec::new();
+                }
+                format!(
+                    "'{}' is not a condition of protocol '{}' ({})",
+                    pref.condition,
+                    protocol.id,
+                    d.conditions
+                        .iter()
+                        .map(|c| c.id.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            }
+            _ => format!(
+                "a paired preference, but protocol '{}' is not a paired comparison",
+                protocol.id
+            ),
+        };
+        vec![("paired_preference.condition".to_owned(), what)]
+    }
 }
 
 /// Reads a population file (JSON: any of [`Population`]'s fields; the rest

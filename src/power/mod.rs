@@ -76,7 +76,8 @@ pub enum PowerError {
     Session(#[from] SessionError),
 }
 
-fn io(path: &Path) -> impl FnOnce(std::io::Error) -> PowerError + '_ {
+/// An output error at `path` (I/O, a results write, serialization).
+fn io<E: std::fmt::Display>(path: &Path) -> impl FnOnce(E) -> PowerError + '_ {
     move |e| PowerError::Io(Problem::new(path.display().to_string(), e.to_string()))
 }
 
@@ -510,8 +511,7 @@ fn append_line(
     path: &Path,
     value: &impl Serialize,
 ) -> Result<(), PowerError> {
-    let mut line = serde_json::to_vec(value)
-        .map_err(|e| PowerError::Io(Problem::new(path.display().to_string(), e.to_string())))?;
+    let mut line = serde_json::to_vec(value).map_err(io(path))?;
     line.push(b'\n');
     file.write_all(&line).map_err(io(path))?;
     file.sync_data().map_err(io(path))
@@ -599,8 +599,7 @@ pub fn run_shard(
         studies,
     };
     let bytes = pretty(&shard_file, &file)?;
-    crate::results::replace_file(&file, &bytes, true)
-        .map_err(|e| PowerError::Io(Problem::new(file.display().to_string(), e.to_string())))?;
+    crate::results::replace_file(&file, &bytes, true).map_err(io(&file))?;
     std::fs::remove_file(&journal).map_err(io(&journal))?;
     remove_dir(&work)?;
     Ok(ShardOutcome {
@@ -612,8 +611,7 @@ pub fn run_shard(
 }
 
 fn pretty(value: &impl Serialize, path: &Path) -> Result<Vec<u8>, PowerError> {
-    let mut bytes = serde_json::to_vec_pretty(value)
-        .map_err(|e| PowerError::Io(Problem::new(path.display().to_string(), e.to_string())))?;
+    let mut bytes = serde_json::to_vec_pretty(value).map_err(io(path))?;
     bytes.push(b'\n');
     Ok(bytes)
 }
@@ -866,8 +864,7 @@ pub fn write(out: &Path, power: &Value) -> Result<(), PowerError> {
     let json_path = out.join("power.json");
     let bytes = pretty(power, &json_path)?;
     let write = |path: &Path, bytes: &[u8]| {
-        crate::results::replace_file(path, bytes, true)
-            .map_err(|e| PowerError::Io(Problem::new(path.display().to_string(), e.to_string())))
+        crate::results::replace_file(path, bytes, true).map_err(io(path))
     };
     write(&json_path, &bytes)?;
     write(&out.join("power.html"), html(power).as_bytes())
