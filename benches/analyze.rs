@@ -2,45 +2,113 @@
 //! million magnitude-estimation trials (1000 participants x 1000 trials, two
 //! displays, 30 stimuli). Goal: under 2 s and at most 1 GB.
 //!
+//! Each session has its log (the primary record) and the data CSV made
+//! from it, as `run` writes them, so `analyze` holds every CSV against its
+//! log first (issue 31); `magnitude-1M-trials-csv-only` is the same folder
+//! analysed CSV-only, for the cost of that check.
+//!
 //! The time is criterion's median of the library call. The memory is the
 //! peak resident size (`VmHWM`) that the `frictionlab analyze` binary reports
 //! for the same folder, printed once.
 
-use std::fmt::Write as _;
 use std::hint::black_box;
 use std::path::Path;
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use frictionlab::analysis::analyze;
+use frictionlab::analysis::{Check, analyze, analyze_with};
+use frictionlab::kinds::TrialData;
+use frictionlab::kinds::magnitude::MagnitudeData;
+use frictionlab::protocol::engine::{Status, TrialRecord};
+use frictionlab::results::{Header, LOG_FORMAT, LogLine, ReadLog, ResultsDir, data_csv};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-const HEADER: &str = "study,kind,participant,session,trial,block,status,seed,practice,repetition,display,mu_s,mu_k,delta_mu,magnitude,response_time_s";
-
-/// Writes the data CSVs; a file that cannot be written stops the bench.
+/// Writes each session's log and its data CSV (made from the log, as a
+/// session does); a file that cannot be written stops the bench.
 fn generate(dir: &Path) {
-    let data = dir.join("data");
-    std::fs::create_dir_all(&data).unwrap_or_else(|e| panic!("{}: {e}", data.display()));
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/protocols/magnitude-estimation.json"
+    ))
+    .unwrap_or_else(|e| panic!("the protocol: {e}"));
+    let mut protocol =
+        frictionlab::protocol::load::parse(&text).unwrap_or_else(|e| panic!("the protocol: {e:?}"));
+    protocol.id = "bench".into();
+    let results = ResultsDir::new(dir);
+    for sub in ["data", "logs"] {
+        let path = dir.join(sub);
+        std::fs::create_dir_all(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    }
     let mut rng = ChaCha8Rng::seed_from_u64(1);
-    for p in 0..1000 {
-        let mut text = String::from(HEADER);
-        text.push('\n');
-        for trial in 0..1000 {
-            let display = if trial < 500 { "tactile" } else { "force" };
-            let stimulus = trial % 30;
-            let delta = [0.1, 0.2, 0.3][stimulus / 10];
-            let mu_s = 0.375 + 0.025 * (stimulus % 10) as f64;
-            let magnitude: f64 = rng.random_range(0.5..20.0);
-            let _ = writeln!(
-                text,
-                "bench,magnitude_estimation,p{p},1,{trial},{display},completed,1,false,{},{display},{mu_s},{},{delta},{magnitude},3.2",
-                trial / 30,
-                mu_s - delta
-            );
+    for p in 0..1000_u32 {
+        let header = Header {
+            format: LOG_FORMAT.into(),
+            software_version: env!("CARGO_PKG_VERSION").into(),
+            protocol_id: "bench".into(),
+            protocol_sha256: String::new(),
+            protocol: protocol.clone(),
+            plan_seed: 1,
+            participant: format!("p{p}"),
+            participant_index: p,
+            session: 1,
+            device: "sim".into(),
+            responder: "sim".into(),
+            planned_trials: 1000,
+            population: None,
+        };
+        let trials: Vec<TrialRecord> = (0..1000_usize)
+            .map(|trial| {
+                let display = if trial < 500 { "tactile" } else { "force" };
+                let stimulus = trial % 30;
+                let delta = [0.1, 0.2, 0.3][stimulus / 10];
+                let mu_s = 0.375 + 0.025 * (stimulus % 10) as f64;
+                TrialRecord {
+                    trial,
+                    block: display.into(),
+                    block_index: usize::from(trial >= 500),
+                    practice: false,
+                    repetition: u32::try_from(trial / 30).unwrap_or(0),
+                    status: Status::Completed,
+                    abort_reason: None,
+                    requeued: false,
+                    trial_seed: 1,
+                    started_s: trial as f64 * 4.0,
+                    ended_s: trial as f64 * 4.0 + 3.2,
+                    data: TrialData::MagnitudeEstimation(MagnitudeData {
+                        display: display.into(),
+                        mu_s,
+                        mu_k: mu_s - delta,
+                        delta_mu: delta,
+                        magnitude: Some(rng.random_range(0.5..20.0)),
+                        response_time_s: Some(3.2),
+                    }),
+                    rendering: Vec::new(),
+                }
+            })
+            .collect();
+        let line = |l: &LogLine| {
+            serde_json::to_string(l).unwrap_or_else(|e| panic!("a log line: {e}")) + "\n"
+        };
+        let mut log = line(&LogLine::Header(Box::new(header.clone())));
+        for t in &trials {
+            log += &line(&LogLine::Trial(t.clone()));
         }
-        let path = data.join(format!("study-bench_subject-p{p}_session-1_data.csv"));
-        std::fs::write(&path, text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        log += &line(&LogLine::End {
+            completed: 1000,
+            aborted: 0,
+        });
+        let files = results.files("bench", &header.participant, 1);
+        let read = ReadLog {
+            header,
+            trials,
+            ended: true,
+            valid_len: 0,
+            torn_bytes: 0,
+        };
+        for (path, text) in [(&files.log, log), (&files.csv, data_csv(&read))] {
+            std::fs::write(path, text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        }
     }
 }
 
@@ -73,6 +141,13 @@ fn million(c: &mut Criterion) {
         .measurement_time(Duration::from_secs(20));
     group.bench_function("magnitude-1M-trials", |b| {
         b.iter(|| black_box(analyze(dir.path()).unwrap_or_else(|e| panic!("analyze: {e}"))));
+    });
+    group.bench_function("magnitude-1M-trials-csv-only", |b| {
+        b.iter(|| {
+            black_box(
+                analyze_with(dir.path(), Check::CsvOnly).unwrap_or_else(|e| panic!("analyze: {e}")),
+            )
+        });
     });
     group.finish();
 }

@@ -33,6 +33,7 @@ fn study(text: &str, root: &std::path::Path, jobs: usize) -> f64 {
             streams: false,
             jobs,
             population: None,
+            stop: None,
         },
         &|_| {},
     )

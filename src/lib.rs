@@ -15,6 +15,7 @@ pub mod friction;
 pub mod gui;
 pub mod hand;
 pub mod identify;
+pub mod interrupt;
 pub mod kinds;
 pub mod parallel;
 pub mod participant;

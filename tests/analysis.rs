@@ -1,5 +1,8 @@
 //! `frictionlab analyze` on small hand-computed fixtures (every statistic
-//! agrees to 1e-9 relative), and on unusable input.
+//! agrees to 1e-9 relative), and on unusable input. The fixtures are data
+//! CSVs written by hand, without session logs, so they are analysed
+//! CSV-only (`--csv-only`); `tests/analysis_against_logs.rs` holds
+//! simulated folders against their logs.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -9,10 +12,16 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-use frictionlab::analysis::{analyze, stats};
+use frictionlab::analysis::{Analysis, Check, analyze_with, stats};
+use frictionlab::problem::Problem;
 use frictionlab::protocol::Kind;
 use frictionlab::results::COMMON_COLUMNS;
 use serde_json::Value;
+
+/// The fixtures' analysis: CSV-only, as they have no logs.
+fn analyze(dir: &Path) -> Result<Analysis, Problem> {
+    analyze_with(dir, Check::CsvOnly)
+}
 
 fn close(actual: f64, expected: f64) -> bool {
     (actual - expected).abs() <= 1e-9 * expected.abs().max(1e-300)
@@ -539,9 +548,11 @@ fn fitts_accuracy_and_throughput_use_every_click_and_aborted_tests_are_counted()
     );
 }
 
+/// `frictionlab ARGS --csv-only` (the fixtures have no logs).
 fn frictionlab(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_frictionlab"))
         .args(args)
+        .arg("--csv-only")
         .output()
         .unwrap()
 }

@@ -83,6 +83,7 @@ fn check_against(
             streams: false,
             jobs: 2,
             population: population.as_ref(),
+            stop: None,
         },
         &|_| {},
     )

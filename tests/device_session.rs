@@ -535,7 +535,7 @@ fn a_device_lost_in_the_answer_phase_costs_that_trial_headless() {
             streams: true,
             population: None,
         };
-        run_device(&results, &req, 1.0, |_| Waiting, &mut |_, _| {})
+        run_device(&results, &req, 1.0, |_| Waiting, None, &mut |_, _| {})
     });
     // Exploration 0-2 s, then the question waits.
     std::thread::sleep(Duration::from_millis(3500));

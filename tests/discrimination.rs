@@ -93,6 +93,7 @@ fn true_threshold(p: &Protocol, bytes: &[u8], pop: &Population, sigma: f64) -> f
         streams: true,
         population: Some(pop),
         jobs: 1,
+        stop: None,
     };
     simulate_participants(&results, &sim, &|_| {}).unwrap();
     let [log]: [PathBuf; 1] = common::session_logs(dir.path()).try_into().unwrap();
@@ -183,6 +184,7 @@ fn recover(method: serde_json::Value, truth: f64) -> Recovery {
         streams: false,
         population: Some(&pop),
         jobs: 2,
+        stop: None,
     };
     simulate_participants(&ResultsDir::new(dir.path()), &sim, &|_| {}).unwrap();
     let analysis = frictionlab::analysis::analyze(dir.path()).unwrap();

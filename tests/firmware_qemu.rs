@@ -85,6 +85,8 @@ fn firmware_dir() -> &'static Path {
 /// that killing the group kills QEMU too.
 struct Board {
     child: Child,
+    /// QEMU's process id, as the command printed it.
+    qemu_pid: u32,
 }
 
 impl Board {
@@ -109,7 +111,13 @@ impl Board {
             "{line}"
         );
         assert!(line.contains(&format!("linked at {}", link.display())));
-        Board { child }
+        let qemu_pid = line
+            .trim_end()
+            .strip_suffix(')')
+            .and_then(|l| l.rsplit_once("(QEMU pid "))
+            .and_then(|(_, pid)| pid.parse().ok())
+            .unwrap_or_else(|| panic!("no QEMU pid in {line}"));
+        Board { child, qemu_pid }
     }
 
     /// Kills QEMU and the command (the whole process group).
@@ -124,6 +132,47 @@ impl Board {
 impl Drop for Board {
     fn drop(&mut self) {
         self.kill();
+    }
+}
+
+/// Whether process `pid` runs (not gone, not a zombie left unreaped).
+fn alive(pid: u32) -> bool {
+    std::fs::read_to_string(format!("/proc/{pid}/stat")).is_ok_and(|stat| {
+        stat.rsplit_once(") ")
+            .is_some_and(|(_, rest)| !rest.starts_with('Z') && !rest.starts_with('X'))
+    })
+}
+
+/// Issue 31: `firmware-qemu` ended by SIGTERM (exit 143) stops its QEMU,
+/// and killed with -9 its QEMU dies with it (`PR_SET_PDEATHSIG`), each
+/// checked by QEMU's process id; the next `--link` to the same path boots.
+#[test]
+fn firmware_qemu_leaves_no_qemu_behind_under_sigterm_or_kill_9_issue_31() {
+    let Some((_turn, _dir, dev)) = setup() else {
+        return;
+    };
+    for signal in ["TERM", "KILL"] {
+        let mut board = Board::boot(&dev);
+        let qemu = board.qemu_pid;
+        assert!(alive(qemu), "QEMU {qemu} runs");
+        // The command alone, not its process group.
+        let sent = Command::new("kill")
+            .args([&format!("-{signal}"), &board.child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(sent.success());
+        let status = board.child.wait().unwrap();
+        if signal == "TERM" {
+            assert_eq!(status.code(), Some(143), "SIGTERM: {status}");
+        }
+        let start = Instant::now();
+        while alive(qemu) && start.elapsed() < Duration::from_secs(10) {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        assert!(
+            !alive(qemu),
+            "SIG{signal}: QEMU {qemu} outlived firmware-qemu"
+        );
     }
 }
 

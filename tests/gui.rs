@@ -457,3 +457,73 @@ fn without_a_display_the_window_says_so_in_one_line_and_exits_2() {
         assert!(err.contains("frictionlab simulate"), "{err}");
     }
 }
+
+/// Issue 31: a session open in another process cannot be resumed (or a new
+/// one started) from the window: both buttons are disabled, with the
+/// command line's reason shown. Once the other process lets go, Resume
+/// works again (the window reads the folder again each second).
+#[test]
+fn a_session_open_in_another_process_disables_resume_with_the_reason_issue_31() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = Process::new(env!("CARGO_BIN_EXE_frictionlab"))
+        .args([
+            "run",
+            &format!(
+                "{}/protocols/magnitude-quick.json",
+                env!("CARGO_MANIFEST_DIR")
+            ),
+        ])
+        .args([
+            "--participant",
+            "p06",
+            "--responder",
+            "sim",
+            "--pace",
+            "1000",
+        ])
+        .arg("--out")
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Unfinished: the `end` line cut off.
+    let log = dir
+        .path()
+        .join("logs/study-magnitudequick_subject-p06_session-1_log.jsonl");
+    let text = std::fs::read_to_string(&log).unwrap();
+    let kept: Vec<&str> = text
+        .lines()
+        .filter(|l| !l.contains("\"type\":\"end\""))
+        .collect();
+    std::fs::write(&log, kept.join("\n") + "\n").unwrap();
+    // Another process's hold, as the OS sees it (this one's lock).
+    let held = std::fs::OpenOptions::new().append(true).open(&log).unwrap();
+    held.lock().unwrap();
+    let mut h = harness(dir.path(), "p06", None);
+    choose_protocol(&mut h, "magnitude-quick.json");
+    h.get_by_label("Session 1 is unfinished: 6 of 6 trials done.");
+    let reason = format!(
+        "error: {}: session 1 of 'p06' is open in another process (pid {}); wait for it to end, or resume it there",
+        log.display(),
+        std::process::id()
+    );
+    h.get_by_label(&reason);
+    for button in ["Resume session 1", "Start new session"] {
+        assert!(
+            h.get_by_label(button).accesskit_node().is_disabled(),
+            "{button} is disabled"
+        );
+    }
+    click(&mut h, "Resume session 1");
+    assert!(h.state().live().is_none(), "nothing opened");
+    drop(held);
+    for _ in 0..30 {
+        h.step();
+    }
+    assert!(h.query_by_label(&reason).is_none(), "the reason is gone");
+    assert!(
+        !h.get_by_label("Resume session 1")
+            .accesskit_node()
+            .is_disabled()
+    );
+}

@@ -55,6 +55,7 @@ fn simulate_all(name: &str, n: u32, seed: u64, edit: impl FnOnce(&mut Value)) ->
             streams: false,
             jobs: 2,
             population: None,
+            stop: None,
         },
         &|_| {},
     )

@@ -365,21 +365,6 @@ fn split_csv(line: &str) -> Vec<String> {
     cells
 }
 
-/// The data CSVs of `dir`, sorted.
-fn data_files(dir: &Path) -> Vec<PathBuf> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir.join("data"))
-        .map(|entries| {
-            entries
-                .filter_map(Result::ok)
-                .map(|e| e.path())
-                .filter(|p| p.to_string_lossy().ends_with("_data.csv"))
-                .collect()
-        })
-        .unwrap_or_default();
-    files.sort();
-    files
-}
-
 /// Columns the analysis of a kind reads.
 fn needed(kind: Kind, entry: &AnalysisEntry) -> Vec<&'static str> {
     let mut c: Vec<&str> = vec!["participant", "trial", "status", "practice"];
@@ -392,13 +377,20 @@ fn needed(kind: Kind, entry: &AnalysisEntry) -> Vec<&'static str> {
 type Group = (Kind, AnalysisEntry, Vec<PathBuf>, Vec<&'static str>);
 
 /// Reads every data CSV of the folder, grouped by kind: completed,
-/// non-practice rows only.
+/// non-practice rows only. Unchecked against the logs (see [`analyze`]).
 ///
 /// # Errors
 /// No data files, a file whose kind cannot be told, missing columns, or a
 /// CSV polars cannot read.
 pub fn load(dir: &Path) -> Result<BTreeMap<&'static str, Rows>, Problem> {
-    let files = data_files(dir);
+    load_files(dir, &crate::results::data_files(dir))
+}
+
+/// [`load`] of the data CSVs `files` of the folder `dir`.
+///
+/// # Errors
+/// As [`load`].
+fn load_files(dir: &Path, files: &[PathBuf]) -> Result<BTreeMap<&'static str, Rows>, Problem> {
     if files.is_empty() {
         return Err(Problem::new(
             dir.display().to_string(),
@@ -412,7 +404,7 @@ pub fn load(dir: &Path) -> Result<BTreeMap<&'static str, Rows>, Problem> {
     // Per kind: its entry, its files, and the optional columns every one of
     // them has (read; else left out for all).
     let mut by_kind: BTreeMap<&'static str, Group> = BTreeMap::new();
-    for file in &files {
+    for file in files {
         let name = file.display().to_string();
         let text = std::fs::read_to_string(file)
             .map_err(|e| Problem::new(&name, format!("cannot read: {e}")))?;
@@ -519,15 +511,59 @@ fn scan(paths: &[PathBuf], columns: &[&str], keep_aborted: bool) -> Result<Rows,
     })
 }
 
-/// Runs every analysis the folder's data allows.
+/// How the data CSVs are checked before they are analysed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Check {
+    /// Each CSV held against its session log, the primary record
+    /// ([`crate::results::verify`]); the default.
+    AgainstLogs,
+    /// The CSVs alone, unchecked (data edited by hand, or without logs):
+    /// said in `summary.json` (`inputs.checked_against_logs: false` and a
+    /// note).
+    CsvOnly,
+}
+
+/// Runs every analysis the folder's data allows, each data CSV first held
+/// against its session log (issue 31).
 ///
 /// # Errors
 /// Input that cannot be analysed.
 pub fn analyze(dir: &Path) -> Result<Analysis, Problem> {
-    let data = load(dir)?;
+    analyze_with(dir, Check::AgainstLogs)
+}
+
+/// [`analyze`], the data CSVs checked as `check` says.
+///
+/// # Errors
+/// Input that cannot be analysed; with [`Check::AgainstLogs`], a CSV
+/// unlike its log, or a damaged log.
+pub fn analyze_with(dir: &Path, check: Check) -> Result<Analysis, Problem> {
+    let mut notes: Vec<String> = Vec::new();
+    let data = match check {
+        Check::AgainstLogs => {
+            let jobs = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
+            let verified = crate::results::verify(dir, jobs)?;
+            notes.extend(verified.notices);
+            if verified.files.is_empty() && !crate::results::data_files(dir).is_empty() {
+                return Err(Problem::new(
+                    dir.display().to_string(),
+                    format!(
+                        "no data to analyse: every session is open in another process ({})",
+                        notes.join("; ")
+                    ),
+                ));
+            }
+            load_files(dir, &verified.files)?
+        }
+        Check::CsvOnly => {
+            notes.push(
+                "the data CSVs were analysed alone, not held against their session logs (the primary record): edits or damage to them would go unnoticed".to_owned(),
+            );
+            load(dir)?
+        }
+    };
     let mut summary = serde_json::Map::new();
     let mut tables = Vec::new();
-    let mut notes: Vec<String> = Vec::new();
     let mut sections = Vec::new();
     for kind in Kind::ALL {
         let (Some(entry), Some(rows)) = (kind.analysis(), data.get(kind.as_str())) else {
@@ -540,10 +576,11 @@ pub fn analyze(dir: &Path) -> Result<Analysis, Problem> {
         tables.extend(section.tables);
     }
     let rows: BTreeMap<&str, usize> = data.iter().map(|(k, v)| (*k, v.len())).collect();
-    summary.insert(
-        "inputs".into(),
-        json!({"folder": folder_name(dir), "analysed_rows": rows, "rule": "completed, non-practice trials"}),
-    );
+    let mut inputs = json!({"folder": folder_name(dir), "analysed_rows": rows, "rule": "completed, non-practice trials"});
+    if check == Check::CsvOnly {
+        inputs["checked_against_logs"] = json!(false);
+    }
+    summary.insert("inputs".into(), inputs);
     summary.insert("notes".into(), json!(notes));
     let summary = Value::Object(summary);
     let html = report::page(&folder_name(dir), &summary, &sections, &notes);
@@ -564,7 +601,9 @@ fn folder_name(dir: &Path) -> String {
 }
 
 /// Writes `summary.json`, `report.html`, and every table as
-/// `tables/<name>.csv` and `tables/<name>.parquet` into `out`.
+/// `tables/<name>.csv` and `tables/<name>.parquet` into `out`, holding a
+/// lock on `out` meanwhile: two analyses into one folder write one after
+/// the other, so its files are all from one of them (issue 31).
 ///
 /// # Errors
 /// An I/O or Parquet error, as (path, message).
@@ -574,6 +613,7 @@ pub fn write(analysis: &Analysis, out: &Path) -> Result<(), (String, String)> {
         let path = p.display().to_string();
         move |e: crate::results::ResultsError| (path, e.to_string())
     };
+    let _held = crate::results::FolderLock::take(out, true).map_err(io(out))?;
     let summary = serde_json::to_string_pretty(&analysis.summary).unwrap_or_default() + "\n";
     let path = out.join("summary.json");
     replace_file(&path, summary.as_bytes(), true).map_err(io(&path))?;

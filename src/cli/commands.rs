@@ -63,8 +63,24 @@ pub(super) fn claims_command(dir: &Path, fitts_protocol: &Path) -> Result<(), Fa
     emit(&format!("wrote {}\n", path.display()))
 }
 
-pub(super) fn analyze_command(dir: &Path, out: Option<&Path>) -> Result<(), Failure> {
-    let analysis = crate::analysis::analyze(dir).map_err(|e| Failure::from(vec![e]))?;
+pub(super) fn analyze_command(
+    dir: &Path,
+    out: Option<&Path>,
+    csv_only: bool,
+) -> Result<(), Failure> {
+    use crate::analysis::Check;
+    let check = if csv_only {
+        Check::CsvOnly
+    } else {
+        Check::AgainstLogs
+    };
+    let analysis = crate::analysis::analyze_with(dir, check).map_err(|mut e| {
+        if e.message.starts_with(results::NO_LOG) {
+            e.message
+                .push_str("; to analyse CSVs alone, unchecked, give --csv-only");
+        }
+        Failure::from(vec![e])
+    })?;
     let out = out.map_or_else(|| dir.join("report"), Path::to_path_buf);
     crate::analysis::write(&analysis, &out).map_err(|(path, message)| Failure {
         code: EXIT_FAILURE,
@@ -171,14 +187,30 @@ pub(super) fn gui_command(
             "no display (DISPLAY and WAYLAND_DISPLAY are unset)",
         ));
     }
+    let interrupt = install_interrupt()?;
     crate::gui::run(crate::gui::Launch {
         protocol: args.protocol,
         participant: args.participant,
         out: args.out,
         device: args.device,
         start,
+        interrupt: Some(interrupt.clone()),
     })
-    .map_err(|e| no_display(&e))
+    .map_err(|e| no_display(&e))?;
+    match interrupt.signal() {
+        Some(signal) => {
+            say(&format!(
+                "interrupted by {}: the window closed; a trial under way is logged as aborted ({}), and the session can be resumed from the window or with `frictionlab run ... --resume`",
+                signal.name(),
+                session::INTERRUPTED
+            ));
+            Err(Failure {
+                code: signal.exit_code(),
+                errors: Vec::new(),
+            })
+        }
+        None => Ok(()),
+    }
 }
 
 pub(super) fn ports_command() -> Result<(), Failure> {
@@ -237,6 +269,7 @@ pub(super) fn emulator_command(
 pub(super) fn firmware_qemu_command(elf: &Path, link: Option<&Path>) -> Result<(), Failure> {
     use crate::device::{emulator, qemu};
     let place = elf.display().to_string();
+    let interrupt = install_interrupt()?;
     let mut board = qemu::boot(elf).map_err(|e| match e {
         qemu::BootError::NoFirmware => Failure::from(vec![UserError::new(&place, e.to_string())]),
         _ => device_failure(&place, e.to_string()),
@@ -258,13 +291,33 @@ pub(super) fn firmware_qemu_command(elf: &Path, link: Option<&Path>) -> Result<(
         linked = format!(", linked at {}", link.display());
     }
     emit(&format!(
-        "firmware on QEMU mps2-an386: {}{linked}\n",
-        board.pty.display()
+        "firmware on QEMU mps2-an386: {}{linked} (QEMU pid {})\n",
+        board.pty.display(),
+        board.child.id()
     ))?;
-    let status = board
-        .child
-        .wait()
-        .map_err(|e| device_failure(&place, e.to_string()))?;
+    // QEMU runs until it ends or a signal ends this command: then QEMU is
+    // stopped and waited for, so no QEMU outlives it holding the link.
+    let status = loop {
+        if let Some(signal) = interrupt.signal() {
+            let _ = board.child.kill();
+            let _ = board.child.wait();
+            say(&format!(
+                "interrupted by {}: {} (pid {}) stopped",
+                signal.name(),
+                qemu::QEMU,
+                board.child.id()
+            ));
+            return Err(Failure {
+                code: signal.exit_code(),
+                errors: Vec::new(),
+            });
+        }
+        match board.child.try_wait() {
+            Ok(Some(status)) => break status,
+            Ok(None) => std::thread::sleep(std::time::Duration::from_millis(50)),
+            Err(e) => return Err(device_failure(&place, e.to_string())),
+        }
+    };
     if status.success() {
         Ok(())
     } else {
@@ -351,6 +404,7 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
             }),
         );
     }
+    let interrupt = install_interrupt()?;
     let seed = args.seed.unwrap_or_else(rand::random::<u64>);
     let dir = results::ResultsDir::new(&args.out);
     let req = session::SessionRequest {
@@ -367,13 +421,15 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
     };
     let outcome = match &args.device {
         DeviceChoice::Simulated => {
-            session::run_simulated(&dir, &req, &mut |_, _| {}).map_err(Failure::from)
+            session::run_simulated(&dir, &req, Some(&interrupt), &mut |_, _| {})
+                .map_err(Failure::from)
         }
         DeviceChoice::Port(path) => session::run_device(
             &dir,
             &req,
             args.device_timeout,
             session::sim_participant,
+            Some(&interrupt),
             &mut |_, _| {},
         )
         .map_err(|e| match e {
@@ -390,6 +446,25 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
             outcome.torn_bytes
         ));
     }
+    if let Some(signal) = outcome.interrupted {
+        let stopped = if outcome.log.exists() {
+            format!(
+                "session {} of '{}' stopped with {} trials completed; the trial under way, if any, is logged as aborted ({}). Resume with: {}",
+                outcome.session,
+                args.participant,
+                outcome.completed,
+                session::INTERRUPTED,
+                resume_command(args)
+            )
+        } else {
+            "stopped before the device answered: nothing was written".to_owned()
+        };
+        say(&format!("interrupted by {}: {stopped}", signal.name()));
+        return Err(Failure {
+            code: signal.exit_code(),
+            errors: Vec::new(),
+        });
+    }
     emit(&format!(
         "session {} of '{}': {} trials completed, {} aborted{} -> {}\n",
         outcome.session,
@@ -402,6 +477,50 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
             .unwrap_or_default(),
         outcome.csv.display()
     ))
+}
+
+/// Installs the SIGINT/SIGTERM/SIGHUP handlers a session's run reads
+/// (issue 31).
+fn install_interrupt() -> Result<crate::interrupt::Interrupt, Failure> {
+    crate::interrupt::Interrupt::install().map_err(|e| Failure {
+        code: EXIT_FAILURE,
+        errors: vec![UserError::new("signals", format!("cannot handle: {e}"))],
+    })
+}
+
+/// A word for a shell: quoted unless it is plain.
+fn shell_word(text: &str) -> String {
+    let plain = !text.is_empty()
+        && text
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c));
+    if plain {
+        text.to_owned()
+    } else {
+        format!("'{}'", text.replace('\'', "'\\''"))
+    }
+}
+
+/// The command that resumes `args`' session.
+fn resume_command(args: &RunArgs) -> String {
+    let mut words = vec![
+        "frictionlab".to_owned(),
+        "run".to_owned(),
+        shell_word(&args.protocol.display().to_string()),
+        "--participant".to_owned(),
+        shell_word(&args.participant),
+        "--out".to_owned(),
+        shell_word(&args.out.display().to_string()),
+    ];
+    if let DeviceChoice::Port(path) = &args.device {
+        words.push("--device".to_owned());
+        words.push(shell_word(&path.display().to_string()));
+    }
+    if args.responder == ResponderChoice::Sim {
+        words.extend(["--responder".to_owned(), "sim".to_owned()]);
+    }
+    words.push("--resume".to_owned());
+    words.join(" ")
 }
 
 /// Reads `--population FILE` if given; its problems go to `errors`.
@@ -463,6 +582,7 @@ pub(super) fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
             std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
         }
     });
+    let interrupt = install_interrupt()?;
     let outcomes = session::simulate_participants(
         &dir,
         &session::Simulation {
@@ -474,12 +594,16 @@ pub(super) fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
             streams: args.streams,
             jobs,
             population: population.as_ref(),
+            stop: Some(&interrupt),
         },
         &|done| bar.set_position(done as u64),
     )?;
+    bar.finish_and_clear();
+    if let Some(signal) = interrupt.signal() {
+        return Err(simulate_interrupted(args, &outcomes, signal));
+    }
     let simulated: f64 = outcomes.iter().map(|o| o.simulated_s).sum();
     let trials: usize = outcomes.iter().map(|o| o.completed + o.aborted).sum();
-    bar.finish_and_clear();
     let elapsed = wall.elapsed().as_secs_f64();
     emit(&format!(
         "simulated {} sessions of '{}' ({jobs} at a time): {trials} trials, {simulated:.1} s of session time in {elapsed:.2} s ({:.0}x real time) -> {}\n",
@@ -488,6 +612,45 @@ pub(super) fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
         simulated / elapsed.max(1e-9),
         dir.root().display()
     ))
+}
+
+/// Says which simulated sessions a signal stopped and how to resume them,
+/// and which never started (nothing written for them).
+fn simulate_interrupted(
+    args: &SimulateArgs,
+    outcomes: &[session::SessionOutcome],
+    signal: crate::interrupt::Signal,
+) -> Failure {
+    let stopped: Vec<&str> = outcomes
+        .iter()
+        .filter(|o| o.interrupted.is_some())
+        .map(|o| o.participant.as_str())
+        .collect();
+    let mut line = format!(
+        "interrupted by {}: {} of {} sessions finished",
+        signal.name(),
+        outcomes.len() - stopped.len(),
+        args.participants
+    );
+    if !stopped.is_empty() {
+        let _ = write!(
+            line,
+            "; {} stopped (the trial under way logged as aborted, {}): resume each with frictionlab run {} --participant ID --out {} --responder sim --resume",
+            stopped.join(", "),
+            session::INTERRUPTED,
+            shell_word(&args.protocol.display().to_string()),
+            shell_word(&args.out.display().to_string())
+        );
+    }
+    let unstarted = args.participants as usize - outcomes.len();
+    if unstarted > 0 {
+        let _ = write!(line, "; {unstarted} not started (nothing written for them)");
+    }
+    say(&line);
+    Failure {
+        code: signal.exit_code(),
+        errors: Vec::new(),
+    }
 }
 
 impl From<crate::power::PowerError> for Failure {

@@ -106,13 +106,19 @@ enum Command {
         out: Option<PathBuf>,
     },
     /// Reads a results folder and writes summary.json, report.html and the
-    /// tables (CSV and Parquet).
+    /// tables (CSV and Parquet). Each data CSV is first held against its
+    /// session log; any difference is an error (exit 2, nothing written).
     Analyze {
         /// The results folder.
         dir: PathBuf,
         /// Where to write the report (default: DIR/report).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Analyse the data CSVs alone, without holding each against its
+        /// session log (the primary record): for data edited by hand or
+        /// without logs. summary.json says so.
+        #[arg(long)]
+        csv_only: bool,
     },
     /// Writes DIR/claims.md: every seed claim against the replays in the
     /// analysis folder DIR (`analysis/`), with the robustness tables.
@@ -380,7 +386,7 @@ pub fn main() -> ExitCode {
         Command::Validate { protocols } => validate_command(&protocols),
         Command::Run(args) => run_command(&args),
         Command::Simulate(args) => simulate_command(&args),
-        Command::Analyze { dir, out } => analyze_command(&dir, out.as_deref()),
+        Command::Analyze { dir, out, csv_only } => analyze_command(&dir, out.as_deref(), csv_only),
         Command::Power(args) => power_command(&args),
         Command::PowerMerge { dirs, out } => power_merge_command(&dirs, out.as_deref()),
         Command::Claims {
@@ -493,6 +499,14 @@ impl From<ResultsError> for Failure {
                 column,
                 message,
             } => vec![UserError::new(path, format!("{line}:{column}: {message}"))].into(),
+            ResultsError::Busy { ref path, .. } => {
+                let message = e.to_string();
+                let message = message
+                    .strip_prefix(&format!("{path}: "))
+                    .unwrap_or(&message)
+                    .to_owned();
+                vec![UserError::new(path.clone(), message)].into()
+            }
             ResultsError::Io { path, source } => Failure {
                 code: EXIT_FAILURE,
                 errors: vec![UserError::new(path, source.to_string())],

@@ -45,9 +45,43 @@ pub enum BootError {
     NoPty(String),
 }
 
+/// `name` found on the `PATH`.
+fn on_path(name: &str) -> Option<PathBuf> {
+    std::env::split_paths(&std::env::var_os("PATH")?)
+        .map(|dir| dir.join(name))
+        .find(|p| p.is_file())
+}
+
+/// The command that starts QEMU so that it dies with this process (issue
+/// 31): in its own process group (a terminal's Ctrl-C reaches this process
+/// alone, which stops QEMU itself), and on Linux under `setpriv
+/// --pdeathsig KILL` (util-linux, on every Debian system), which sets
+/// `PR_SET_PDEATHSIG`: the kernel kills QEMU when the thread that started
+/// it ends, even under kill -9. Without `setpriv`, QEMU starts plainly.
+fn qemu_command() -> Result<Command, BootError> {
+    use std::os::unix::process::CommandExt;
+    let qemu = on_path(QEMU).ok_or_else(|| {
+        BootError::Start(std::io::Error::new(
+            std::io::ErrorKind::NotFound,
+            "not found on the PATH",
+        ))
+    })?;
+    let mut command = match on_path("setpriv").filter(|_| cfg!(target_os = "linux")) {
+        Some(setpriv) => {
+            let mut c = Command::new(setpriv);
+            c.args(["--pdeathsig", "KILL", "--"]).arg(qemu);
+            c
+        }
+        None => Command::new(qemu),
+    };
+    command.process_group(0);
+    Ok(command)
+}
+
 /// Boots the firmware `elf` on mps2-an386 with its UART0 on a new
 /// pseudo-terminal. QEMU's standard error, and its standard output but for
-/// that line, go to this process's standard error.
+/// that line, go to this process's standard error. QEMU dies with the
+/// thread that calls this (see `qemu_command`).
 ///
 /// # Errors
 /// No firmware at `elf`, no QEMU, or QEMU gave no pseudo-terminal.
@@ -55,7 +89,7 @@ pub fn boot(elf: &Path) -> Result<Qemu, BootError> {
     if !elf.is_file() {
         return Err(BootError::NoFirmware);
     }
-    let mut child = Command::new(QEMU)
+    let mut child = qemu_command()?
         .args(["-M", "mps2-an386", "-nographic", "-monitor", "none"])
         .args(["-serial", "pty"])
         .args(["-semihosting-config", "enable=on,target=native"])

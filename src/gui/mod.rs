@@ -55,6 +55,9 @@ pub struct Launch {
     pub device: DeviceChoice,
     /// Start the session at once (`run --responder gui`).
     pub start: Option<AutoStart>,
+    /// Signals that end the window (issue 31): a session open is ended as
+    /// [`LiveSession::interrupted`] says, then the window closes.
+    pub interrupt: Option<crate::interrupt::Interrupt>,
 }
 
 /// A session started as the window opens.
@@ -76,6 +79,7 @@ impl Default for Launch {
             out: PathBuf::from("results"),
             device: DeviceChoice::Simulated,
             start: None,
+            interrupt: None,
         }
     }
 }
@@ -148,6 +152,7 @@ pub struct FrictionlabApp {
     frames: FrameStats,
     /// The participant's workspace strip as last drawn.
     canvas: Option<egui::Rect>,
+    interrupt: Option<crate::interrupt::Interrupt>,
 }
 
 impl FrictionlabApp {
@@ -155,6 +160,7 @@ impl FrictionlabApp {
     #[must_use]
     pub fn new(launch: Launch) -> Self {
         let start = launch.start;
+        let interrupt = launch.interrupt.clone();
         let mut app = FrictionlabApp {
             setup: SetupPanel::new(launch),
             session: SessionPanel::default(),
@@ -163,6 +169,7 @@ impl FrictionlabApp {
             answer: String::new(),
             frames: FrameStats::default(),
             canvas: None,
+            interrupt,
         };
         if let Some(start) = start {
             app.apply(Command::Start {
@@ -306,6 +313,21 @@ impl eframe::App for FrictionlabApp {
         if let Some(cpu) = frame.info().cpu_usage {
             self.frames.record(f64::from(cpu), dt);
         }
+        if let Some(signal) = self
+            .interrupt
+            .as_ref()
+            .and_then(crate::interrupt::Interrupt::signal)
+        {
+            // Ended by a signal: the trial under way is logged as aborted,
+            // then the window closes (the caller reports the signal).
+            if let Some(live) = &mut self.live
+                && let Err(e) = live.interrupted(signal)
+            {
+                self.error = Some(format!("error: {e}"));
+            }
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+            return;
+        }
         if let Some(live) = &mut self.live {
             if let Err(e) = live.advance(now) {
                 self.error = Some(format!("error: {e}"));
@@ -313,6 +335,10 @@ impl eframe::App for FrictionlabApp {
             if matches!(live.phase(), Phase::Running | Phase::Paused) {
                 ctx.request_repaint();
             }
+        }
+        if self.interrupt.is_some() {
+            // An idle window still notices a signal.
+            ctx.request_repaint_after(std::time::Duration::from_millis(100));
         }
     }
 

@@ -36,14 +36,23 @@ impl Loaded {
 }
 
 /// The participant's sessions of the chosen protocol in the chosen folder.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 struct SessionsInfo {
     key: (String, String, String),
     next: u32,
     /// (session, trials logged, planned) of an unfinished last session.
     unfinished: Option<(u32, usize, usize)>,
+    /// Why no session of the participant can start or resume here: one is
+    /// open in another process (issue 31).
+    busy: Option<String>,
     error: Option<String>,
+    /// When this was read (egui's clock, s): a session open elsewhere
+    /// ends without telling, so it is read again every second.
+    read_at: f64,
 }
+
+/// How often the participant's sessions are read again, s.
+const SESSIONS_EVERY_S: f64 = 1.0;
 
 /// What the setup panel keeps between frames.
 pub(super) struct SetupPanel {
@@ -213,8 +222,8 @@ impl SetupPanel {
     }
 
     /// Recomputes the participant's sessions when protocol, folder or id
-    /// changed.
-    fn refresh_sessions(&mut self) {
+    /// changed, or a second has passed (at `now`, s).
+    fn refresh_sessions(&mut self, now: f64) {
         let Ok(loaded) = &self.loaded else {
             self.sessions = None;
             return;
@@ -224,17 +233,27 @@ impl SetupPanel {
             loaded.protocol.id.clone(),
             self.participant.trim().to_owned(),
         );
-        if self.sessions.as_ref().is_some_and(|s| s.key == key) {
+        if self
+            .sessions
+            .as_ref()
+            .is_some_and(|s| s.key == key && (0.0..SESSIONS_EVERY_S).contains(&(now - s.read_at)))
+        {
             return;
         }
         let mut info = SessionsInfo {
             key: key.clone(),
             next: 1,
             unfinished: None,
+            busy: None,
             error: None,
+            read_at: now,
         };
         if check_participant(&key.2).is_ok() {
-            match ResultsDir::new(&key.0).sessions(&key.1, &key.2) {
+            let dir = ResultsDir::new(&key.0);
+            if let Err(e) = dir.free_sessions(&key.1, &key.2) {
+                info.busy = Some(format!("error: {e}"));
+            }
+            match dir.sessions(&key.1, &key.2) {
                 Ok(sessions) => {
                     if let Some(last) = sessions.last() {
                         info.next = last.session + 1;
@@ -399,12 +418,18 @@ impl SetupPanel {
     /// The participant's sessions so far, and the Start and Resume buttons.
     /// (The setup is shown only while no session is open.)
     fn session_choice(&mut self, ui: &mut egui::Ui, commands: &mut Vec<Command>) {
-        self.refresh_sessions();
-        let problems = self.start_problems();
+        self.refresh_sessions(ui.input(|i| i.time));
+        let mut problems = self.start_problems();
         ui.vertical(|ui| {
             if let Some(info) = &self.sessions {
                 if let Some(e) = &info.error {
                     ui.label(RichText::new(e).color(ERROR_RED));
+                }
+                if let Some(busy) = &info.busy {
+                    // Neither a resume nor a new session of this
+                    // participant can open while one is open elsewhere.
+                    ui.label(RichText::new(busy).color(ERROR_RED));
+                    problems.push("wait until the session open elsewhere has ended".to_owned());
                 }
                 if let Some((session, done, total)) = info.unfinished {
                     ui.label(format!(

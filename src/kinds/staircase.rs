@@ -363,7 +363,7 @@ mod tests {
             population: None,
         };
         let planned = plan_session(&dir, &req, Observer::LABEL).unwrap();
-        run_planned(&dir, planned, pace, |_| Observer, &mut |_, _| {}).unwrap();
+        run_planned(&dir, planned, pace, |_| Observer, None, &mut |_, _| {}).unwrap();
     }
 
     const CHILD_ENV: &str = "FRICTIONLAB_TOY_STAIRCASE_OUT";

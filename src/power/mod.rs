@@ -267,6 +267,13 @@ impl Shard {
         dir.join(format!("{}.partial.jsonl", self.name()))
     }
 
+    /// The lock one process holds while it runs the shard (issue 31: two
+    /// runs of one shard would append to one journal). Kept after the run:
+    /// removing a lock file races a process about to take it.
+    fn lock(self, dir: &Path) -> PathBuf {
+        dir.join(format!(".{}.lock", self.name()))
+    }
+
     fn work(self, dir: &Path) -> PathBuf {
         dir.join(format!(".{}.work", self.name()))
     }
@@ -388,6 +395,7 @@ fn run_study(plan: &Plan<'_>, index: u64, work: &Path) -> Result<StudyRecord, Po
             streams: false,
             population: plan.header.population.as_ref(),
             jobs: 1,
+            stop: None,
         },
         &|_| {},
     )?;
@@ -537,6 +545,21 @@ pub fn run_shard(
     };
     let file = shard.file(out);
     let indices: Vec<u64> = shard.indices(plan.header.total()).collect();
+    std::fs::create_dir_all(out).map_err(io(out))?;
+    let lock = shard.lock(out);
+    let _held = crate::results::lock_file(&lock)
+        .map_err(io(&lock))?
+        .map_err(|holder| {
+            input(
+                shard.journal(out).display().to_string(),
+                format!(
+                    "shard {}/{} of this plan is being run by another process{}: wait for it to end, or give another --out",
+                    shard.k,
+                    shard.n,
+                    holder.pid_text()
+                ),
+            )
+        })?;
     if file.exists() {
         let done = read_shard(&file)?;
         if done.plan != head.plan || done.shard != head.shard {
@@ -553,7 +576,6 @@ pub fn run_shard(
             ran: 0,
         });
     }
-    std::fs::create_dir_all(out).map_err(io(out))?;
     let journal = shard.journal(out);
     let mut found = open_journal(&journal, &head)?;
     let resumed = found.len();
@@ -651,10 +673,20 @@ fn read_shards(dirs: &[PathBuf]) -> Result<(Vec<Found>, Vec<Problem>), PowerErro
         names.sort();
         for name in names {
             let path = dir.join(&name);
-            if name.ends_with(".partial.jsonl") {
+            if let Some(stem) = name.strip_suffix(".partial.jsonl") {
+                let running = crate::results::open_elsewhere(&dir.join(format!(".{stem}.lock")));
                 problems.push(Problem::new(
                     path.display().to_string(),
-                    "a shard that has not finished (still running, or killed): rerun it with the same options",
+                    match running {
+                        Some(holder) => format!(
+                            "a shard still running in another process{}: merge once it has ended",
+                            holder.pid_text()
+                        ),
+                        None => {
+                            "a shard that has not finished (killed): rerun it with the same options"
+                                .to_owned()
+                        }
+                    },
                 ));
             } else if path.extension().is_some_and(|e| e == "json") {
                 shards.push((path.clone(), read_shard(&path)?));

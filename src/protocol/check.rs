@@ -6,7 +6,7 @@
 use std::collections::HashSet;
 
 use super::Protocol;
-use super::load::is_valid_id;
+use super::load::id_problem;
 use crate::problem::Problem;
 
 /// Collects the problems of value checks, each at its JSON path under a
@@ -47,11 +47,8 @@ impl Checks<'_> {
     ) -> HashSet<&'i str> {
         let mut seen = HashSet::new();
         for (i, id) in ids.enumerate() {
-            if !is_valid_id(id) {
-                self.err(
-                    &format!("{path}[{i}].id"),
-                    format!("'{id}': use letters, digits, '-' and '_'"),
-                );
+            if let Some(why) = id_problem(id) {
+                self.err(&format!("{path}[{i}].id"), why);
             }
             if !seen.insert(id) {
                 self.err(
@@ -70,11 +67,8 @@ impl Checks<'_> {
 /// Value checks on a structurally valid protocol.
 pub(super) fn check(p: &Protocol, errors: &mut Vec<Problem>) {
     let mut c = Checks { errors, prefix: "" };
-    if !is_valid_id(&p.id) {
-        c.err(
-            "id",
-            format!("'{}': use letters, digits, '-' and '_'", p.id),
-        );
+    if let Some(why) = id_problem(&p.id) {
+        c.err("id", why);
     }
     if p.repetitions == 0 {
         c.err("repetitions", "must be at least 1");

@@ -64,13 +64,32 @@ pub fn read(path: &std::path::Path) -> Result<(Protocol, Vec<u8>), Vec<Problem>>
     Ok((protocol, bytes))
 }
 
-/// Letters, digits, `-` and `_`, at least one letter or digit.
+/// The longest id (protocol, condition, participant), in characters. A
+/// session's file names hold two ids, and file systems allow 255 bytes a
+/// name: a longer id would fail only when its first file is written.
+pub const MAX_ID_CHARS: usize = 64;
+
+/// Why `id` is not a valid id (its rules named), or `None`: letters,
+/// digits, `-` and `_`, at least one letter or digit, at most
+/// [`MAX_ID_CHARS`].
 #[must_use]
-pub fn is_valid_id(id: &str) -> bool {
-    id.chars().any(|c| c.is_ascii_alphanumeric())
+pub fn id_problem(id: &str) -> Option<String> {
+    let chars = id.chars().count();
+    if chars > MAX_ID_CHARS {
+        let start: String = id.chars().take(16).collect();
+        return Some(format!(
+            "'{start}...' is {chars} characters long: at most {MAX_ID_CHARS}"
+        ));
+    }
+    let valid = id.chars().any(|c| c.is_ascii_alphanumeric())
         && id
             .chars()
-            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
+    (!valid).then(|| {
+        format!(
+            "'{id}': use letters, digits, '-' and '_' (and at least one letter or digit, at most {MAX_ID_CHARS})"
+        )
+    })
 }
 
 /// The walk over a protocol's JSON: each reader takes a value and its JSON

@@ -6,21 +6,19 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 use super::ResultsError;
+use super::lock::{self, FolderLock};
 use super::session_log::{Header, read_header};
 
+pub use crate::protocol::load::MAX_ID_CHARS;
+
 /// Participant ids: letters, digits, `-`, `_`, with at least one letter or
-/// digit.
+/// digit, at most [`MAX_ID_CHARS`] (issue 31: a longer one failed only at
+/// its first file, with the OS's "File name too long").
 ///
 /// # Errors
 /// Why the id is refused.
 pub fn check_participant(id: &str) -> Result<(), String> {
-    if crate::protocol::load::is_valid_id(id) {
-        Ok(())
-    } else {
-        Err(format!(
-            "'{id}': use letters, digits, '-' and '_' (and at least one letter or digit)"
-        ))
-    }
+    crate::protocol::load::id_problem(id).map_or(Ok(()), Err)
 }
 
 /// An id with everything but letters and digits left out (psych-DS keyword
@@ -138,6 +136,49 @@ impl ResultsDir {
         }
         out.sort_by_key(|s| s.session);
         Ok(out)
+    }
+
+    /// The participant's sessions, as [`ResultsDir::sessions`], refusing
+    /// when one of them is open in another process (issue 31). Writes
+    /// nothing.
+    ///
+    /// # Errors
+    /// [`ResultsError::Busy`], a collision, or an unreadable log header.
+    pub fn free_sessions(
+        &self,
+        protocol_id: &str,
+        participant: &str,
+    ) -> Result<Vec<SessionFiles>, ResultsError> {
+        let sessions = self.sessions(protocol_id, participant)?;
+        for s in &sessions {
+            if let Some(holder) = lock::open_elsewhere(&s.log) {
+                return Err(lock::busy(&s.log, (s.session, participant), holder.pid));
+            }
+        }
+        Ok(sessions)
+    }
+
+    /// Opens session `files` of `participant` to continue it and takes its
+    /// session lock, held for as long as the file is.
+    ///
+    /// # Errors
+    /// [`ResultsError::Busy`] when another process has it open, or I/O.
+    pub fn lock_session(
+        &self,
+        files: &SessionFiles,
+        participant: &str,
+    ) -> Result<std::fs::File, ResultsError> {
+        lock::open_locked(&files.log, (files.session, participant))
+    }
+
+    /// Takes the folder lock (see `lock.rs`) for the moment a session is
+    /// chosen and opened; with `create`, makes `logs/` first. `None`: no
+    /// `logs/` yet (and `create` is false), so no session to choose.
+    ///
+    /// # Errors
+    /// I/O.
+    pub fn lock_folder(&self, create: bool) -> Result<Option<FolderLock>, ResultsError> {
+        FolderLock::take(&self.root.join("logs"), create)
     }
 
     /// How many distinct participants have sessions of `protocol_id` here,

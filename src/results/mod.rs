@@ -25,18 +25,22 @@ mod atomic;
 pub mod csv;
 mod export;
 mod folder;
+mod lock;
 mod session_log;
+mod verify;
 
 use std::io;
 use std::path::Path;
 
 pub use atomic::replace_file;
 pub use export::{COMMON_COLUMNS, data_csv, kinds_present, write_dataset_description};
-pub use folder::{ResultsDir, SessionFiles, check_participant, file_key};
+pub use folder::{MAX_ID_CHARS, ResultsDir, SessionFiles, check_participant, file_key};
+pub use lock::{FolderLock, Holder, lock_file, open_elsewhere};
 pub use session_log::{
     Header, LOG_FORMAT, LogLine, ReadLog, SessionLog, is_completed, log_json_schema, parse_log,
     read_log, sha256_hex,
 };
+pub use verify::{NO_LOG, Verified, data_files, verify};
 
 /// Why a results operation failed.
 #[derive(Debug, thiserror::Error)]
@@ -65,6 +69,22 @@ pub enum ResultsError {
         column: usize,
         /// What is wrong.
         message: String,
+    },
+    /// The session is open in another process (issue 31): bad input (exit
+    /// 2); nothing was written.
+    #[error(
+        "{path}: session {session} of '{participant}' is open in another process{}; wait for it to end, or resume it there",
+        pid.map(|p| format!(" (pid {p})")).unwrap_or_default()
+    )]
+    Busy {
+        /// The session's log.
+        path: String,
+        /// Its number.
+        session: u32,
+        /// Its participant.
+        participant: String,
+        /// The process holding it, where the OS tells.
+        pid: Option<u32>,
     },
     /// An I/O error on a file.
     #[error("{path}: {source}")]

@@ -11,7 +11,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
-use super::{ResultsError, io_err};
+use super::{ResultsError, io_err, lock};
 use crate::protocol::Protocol;
 use crate::protocol::engine::{Status, TrialRecord};
 
@@ -78,6 +78,12 @@ pub enum LogLine {
         /// The text.
         text: String,
     },
+    /// A signal ended the run here (issue 31); the trial under way, if
+    /// any, is logged before this line as aborted (`interrupted`).
+    Interrupted {
+        /// `SIGINT`, `SIGTERM` or `SIGHUP`.
+        signal: String,
+    },
     /// Every planned trial is done.
     End {
         /// Completed trials.
@@ -114,7 +120,12 @@ pub struct SessionLog {
 }
 
 impl SessionLog {
-    /// Creates a new log at `path` (never overwriting) with its header line.
+    /// Creates a new log at `path` with its header line, never
+    /// overwriting, and holds its session lock (issue 31) until dropped.
+    /// The log appears whole: it is written under a temporary name, locked,
+    /// then linked into place, so no reader finds it without its header or
+    /// unlocked. Where the file system has no hard links (FAT, exFAT) it is
+    /// created in place and locked at once.
     ///
     /// # Errors
     /// The file exists, or any I/O error.
@@ -122,16 +133,29 @@ impl SessionLog {
         if let Some(parent) = path.parent() {
             std::fs::create_dir_all(parent).map_err(io_err(parent))?;
         }
-        let file = OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(path)
-            .map_err(io_err(path))?;
-        let mut log = SessionLog {
-            file,
-            path: path.to_owned(),
+        let who = (header.session, header.participant.clone());
+        let line = LogLine::Header(Box::new(header));
+        let tmp = lock::temporary(path);
+        let mut log = SessionLog::new_locked(&tmp, (who.0, &who.1))?;
+        let linked = log
+            .append(&line)
+            .and_then(|()| std::fs::hard_link(&tmp, path).map_err(io_err(path)));
+        let _ = std::fs::remove_file(&tmp);
+        log = match linked {
+            Ok(()) => SessionLog {
+                path: path.to_owned(),
+                ..log
+            },
+            Err(ResultsError::Io { source, .. })
+                if source.kind() != io::ErrorKind::AlreadyExists =>
+            {
+                drop(log);
+                let mut log = SessionLog::new_locked(path, (who.0, &who.1))?;
+                log.append(&line)?;
+                log
+            }
+            Err(e) => return Err(e),
         };
-        log.append(&LogLine::Header(Box::new(header)))?;
         if let Some(parent) = path.parent() {
             // Make the new file's directory entry durable too.
             let _ = File::open(parent).and_then(|d| d.sync_all());
@@ -139,17 +163,34 @@ impl SessionLog {
         Ok(log)
     }
 
-    /// Opens an existing log to append; a torn last line (no newline) is cut
-    /// off first. Returns the log and the number of bytes cut.
+    /// A new, empty file at `path`, its session lock taken.
+    fn new_locked(path: &Path, who: (u32, &str)) -> Result<Self, ResultsError> {
+        let file = OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(path)
+            .map_err(io_err(path))?;
+        if !lock::lock_session(&file).map_err(io_err(path))? {
+            return Err(lock::busy(path, who, None));
+        }
+        Ok(SessionLog {
+            file,
+            path: path.to_owned(),
+        })
+    }
+
+    /// Continues an existing log whose session lock `file` holds
+    /// ([`super::ResultsDir::lock_session`]); a torn last line (bytes past
+    /// `valid_len`) is cut off first. Returns the log and the number of
+    /// bytes cut.
     ///
     /// # Errors
     /// Any I/O error.
-    pub fn reopen(path: &Path, valid_len: u64) -> Result<(Self, u64), ResultsError> {
-        let mut file = OpenOptions::new()
-            .read(true)
-            .write(true)
-            .open(path)
-            .map_err(io_err(path))?;
+    pub fn reopen(
+        mut file: File,
+        path: &Path,
+        valid_len: u64,
+    ) -> Result<(Self, u64), ResultsError> {
         let len = file.metadata().map_err(io_err(path))?.len();
         let torn = len.saturating_sub(valid_len);
         if torn > 0 {
@@ -266,8 +307,17 @@ pub fn read_log(path: &Path) -> Result<ReadLog, ResultsError> {
 /// # Errors
 /// As [`read_log`].
 pub fn parse_log(path: &Path, bytes: &[u8]) -> Result<ReadLog, ResultsError> {
+    parse_log_lines(path, bytes).map(|(read, _)| read)
+}
+
+/// [`parse_log`], with the line (1-based) of each trial record.
+pub(super) fn parse_log_lines(
+    path: &Path,
+    bytes: &[u8],
+) -> Result<(ReadLog, Vec<usize>), ResultsError> {
     let mut header = None;
     let mut trials = Vec::new();
+    let mut lines = Vec::new();
     let mut ended = false;
     let mut offset = 0_usize;
     let mut valid_len = 0_usize;
@@ -303,9 +353,15 @@ pub fn parse_log(path: &Path, bytes: &[u8]) -> Result<ReadLog, ResultsError> {
                             "the first line is not a header".into(),
                         ));
                     }
-                    LogLine::Trial(r) => trials.push(r),
+                    LogLine::Trial(r) => {
+                        trials.push(r);
+                        lines.push(line_no);
+                    }
                     LogLine::End { .. } => ended = true,
-                    LogLine::Resumed { .. } | LogLine::Note { .. } | LogLine::Loop(_) => {}
+                    LogLine::Resumed { .. }
+                    | LogLine::Note { .. }
+                    | LogLine::Loop(_)
+                    | LogLine::Interrupted { .. } => {}
                 }
                 valid_len = next;
             }
@@ -323,13 +379,14 @@ pub fn parse_log(path: &Path, bytes: &[u8]) -> Result<ReadLog, ResultsError> {
         offset = next;
     }
     let header = header.ok_or_else(|| log_error(path, 1, 1, "empty log: no header".into()))?;
-    Ok(ReadLog {
+    let read = ReadLog {
         header,
         trials,
         ended,
         valid_len: valid_len as u64,
         torn_bytes: (bytes.len() - valid_len) as u64,
-    })
+    };
+    Ok((read, lines))
 }
 
 /// Whether a record counts as completed.

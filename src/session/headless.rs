@@ -8,6 +8,7 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use super::{Phase, Responder, Session, SessionError, SessionRequest};
+use crate::interrupt::{Interrupt, Signal};
 use crate::participant::SimParticipant;
 use crate::protocol::Protocol;
 use crate::results::{Header, ResultsDir};
@@ -31,6 +32,20 @@ pub struct SessionOutcome {
     pub csv: PathBuf,
     /// The log.
     pub log: PathBuf,
+    /// The participant.
+    pub participant: String,
+    /// The signal that ended this run before the session's end (issue 31):
+    /// the trial under way was logged as aborted, and `--resume` goes on.
+    pub interrupted: Option<Signal>,
+}
+
+impl SessionOutcome {
+    fn interrupted_by(self, signal: Signal) -> Self {
+        SessionOutcome {
+            interrupted: Some(signal),
+            ..self
+        }
+    }
 }
 
 /// The simulated participant of a session's header (its traits from the plan seed and id).
@@ -88,15 +103,30 @@ fn report<R: Responder>(
 pub fn run_simulated(
     dir: &ResultsDir,
     req: &SessionRequest<'_>,
+    stop: Option<&Interrupt>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<SessionOutcome, SessionError> {
     let planned = super::plan(dir, req, <SimParticipant as Responder>::LABEL)?;
-    run_planned(dir, planned, req.pace, sim_participant, progress)
+    run_planned(dir, planned, req.pace, sim_participant, stop, progress)
+}
+
+/// The signal `stop` holds, if any; ends `session`'s run for it.
+fn stopped<R: Responder>(
+    session: &mut Session<R>,
+    stop: Option<&Interrupt>,
+) -> Result<Option<Signal>, SessionError> {
+    let Some(signal) = stop.and_then(Interrupt::signal) else {
+        return Ok(None);
+    };
+    session.interrupted(signal)?;
+    Ok(Some(signal))
 }
 
 /// Runs a planned session ([`super::plan`], perhaps with another trial
 /// source) on the simulated device with `responder` made from its header,
-/// in virtual time paced by `pace` (`None`: as fast as possible).
+/// in virtual time paced by `pace` (`None`: as fast as possible). A signal
+/// in `stop` ends the run ([`Session::interrupted`]; the outcome says
+/// which).
 ///
 /// # Errors
 /// I/O on the results.
@@ -105,6 +135,7 @@ pub fn run_planned<R: Responder>(
     planned: super::Planned,
     pace: Option<f64>,
     responder: impl FnOnce(&Header) -> R,
+    stop: Option<&Interrupt>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<SessionOutcome, SessionError> {
     let mut session =
@@ -120,6 +151,9 @@ pub fn run_planned<R: Responder>(
         report(&session, &mut seen, progress);
         ticks += 1;
         if ticks.is_multiple_of(64) {
+            if let Some(signal) = stopped(&mut session, stop)? {
+                return Ok(session.outcome().interrupted_by(signal));
+            }
             pacer.wait(session.now_s());
         }
     }
@@ -131,7 +165,8 @@ pub fn run_planned<R: Responder>(
 /// with `responder` made from the session header answering. Nothing is
 /// written until the device answers. A device lost mid-trial costs that
 /// trial (aborted and re-queued) and holds the session until it answers
-/// again; after `timeout_s` without an answer the run gives up.
+/// again; after `timeout_s` without an answer the run gives up. A signal
+/// in `stop` ends the run as in [`run_planned`].
 ///
 /// # Errors
 /// Bad input, I/O on the results, or a device silent for longer than the
@@ -141,6 +176,7 @@ pub fn run_device<R: Responder>(
     req: &SessionRequest<'_>,
     timeout_s: f64,
     responder: impl FnOnce(&Header) -> R,
+    stop: Option<&Interrupt>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<SessionOutcome, SessionError> {
     let mut session = Session::begin(dir, req, responder)?;
@@ -148,6 +184,9 @@ pub fn run_device<R: Responder>(
     let mut seen = 0;
     loop {
         session.poll_device()?;
+        if let Some(signal) = stopped(&mut session, stop)? {
+            return Ok(session.outcome().interrupted_by(signal));
+        }
         report(&session, &mut seen, progress);
         if session.phase() == Phase::Finished {
             return Ok(session.outcome());
@@ -205,12 +244,25 @@ pub struct Simulation<'a> {
     /// depends only on its participant's seed, so the files are the same
     /// byte for byte whatever the number.
     pub jobs: usize,
+    /// A signal here ends every running session ([`run_planned`]) and
+    /// starts no new one.
+    pub stop: Option<&'a Interrupt>,
+}
+
+/// The id of simulated participant `i` (0-based): `sim-001`, ...
+#[must_use]
+pub fn sim_id(i: u32) -> String {
+    format!("sim-{:03}", i + 1)
 }
 
 /// Runs a [`Simulation`]; the outcomes come in participant order.
 /// `progress(trials done in all sessions)` is called after each trial (from
 /// the worker threads). After a session fails, no new one starts; the first
-/// failure (in participant order) is returned.
+/// failure (in participant order) is returned. Before anything is written,
+/// a participant with a session open in another process refuses the whole
+/// simulation (issue 31). After a signal in `sim.stop`, the sessions
+/// running end as [`run_planned`] says and no new one starts: the outcomes
+/// are those of the sessions started.
 ///
 /// # Errors
 /// As [`run_simulated`].
@@ -222,8 +274,14 @@ pub fn simulate_participants(
     use std::sync::atomic::{AtomicUsize, Ordering};
     let done = AtomicUsize::new(0);
     let participants: Vec<u32> = (0..sim.participants).collect();
-    crate::parallel::run(&participants, sim.jobs, |&i| {
-        let id = format!("sim-{:03}", i + 1);
+    for &i in &participants {
+        dir.free_sessions(&sim.protocol.id, &sim_id(i))?;
+    }
+    let results = crate::parallel::run(&participants, sim.jobs, |&i| {
+        if sim.stop.and_then(Interrupt::signal).is_some() {
+            return Ok(None);
+        }
+        let id = sim_id(i);
         let req = SessionRequest {
             protocol: sim.protocol,
             protocol_bytes: sim.protocol_bytes,
@@ -237,12 +295,16 @@ pub fn simulate_participants(
             population: sim.population,
         };
         let mut reported = 0;
-        run_simulated(dir, &req, &mut |trial, _| {
+        run_simulated(dir, &req, sim.stop, &mut |trial, _| {
             let new = trial.saturating_sub(reported);
             reported = reported.max(trial);
             progress(done.fetch_add(new, Ordering::Relaxed) + new);
         })
-    })
-    .into_iter()
-    .collect()
+        .map(Some)
+    });
+    let mut outcomes = Vec::with_capacity(results.len());
+    for result in results {
+        outcomes.extend(result?);
+    }
+    Ok(outcomes)
 }

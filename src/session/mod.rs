@@ -63,7 +63,7 @@ use std::path::PathBuf;
 
 pub use device::{DeviceStatus, HAND_EVERY_S, percentile};
 pub use headless::{
-    SessionOutcome, Simulation, participant_seed, run_device, run_planned, run_simulated,
+    SessionOutcome, Simulation, participant_seed, run_device, run_planned, run_simulated, sim_id,
     sim_participant, simulate_participants,
 };
 use open::Log;
@@ -89,6 +89,9 @@ use view::Trace;
 
 /// The session a person runs from the window.
 pub type LiveSession = Session<Person>;
+
+/// The abort reason of a trial ended by a signal (issue 31).
+pub const INTERRUPTED: &str = "interrupted";
 
 /// Longest session-time step one frame may take with the simulated device, s.
 pub const MAX_FRAME_STEP_S: f64 = 0.5;
@@ -614,14 +617,37 @@ impl<R: Responder> Session<R> {
     /// # Errors
     /// I/O on the log or CSV.
     pub fn abort(&mut self) -> Result<(), ResultsError> {
+        self.stop_run("session aborted by the experimenter", None)
+    }
+
+    /// Ends the run on a signal (issue 31): a trial being presented is
+    /// logged as aborted with the reason [`INTERRUPTED`] (and re-queued, so
+    /// a resume presents it again), the device stops, and an `interrupted`
+    /// line records the signal; the log stays open-ended for a resume.
+    ///
+    /// # Errors
+    /// I/O on the log or CSV.
+    pub fn interrupted(&mut self, signal: crate::interrupt::Signal) -> Result<(), ResultsError> {
+        self.stop_run(
+            INTERRUPTED,
+            Some(LogLine::Interrupted {
+                signal: signal.name().to_owned(),
+            }),
+        )
+    }
+
+    fn stop_run(&mut self, reason: &str, line: Option<LogLine>) -> Result<(), ResultsError> {
         if !matches!(self.phase, Phase::Running | Phase::Paused) {
             return Ok(());
         }
         // Hold the engine where it is: the aborted trial's `Recorded` is
         // not delivered, so no next trial starts.
         self.phase = Phase::Paused;
-        self.interrupt("session aborted by the experimenter")?;
+        self.interrupt(reason)?;
         self.stop_device()?;
+        if let (Some(line), Some(open)) = (line, self.log.opened()) {
+            open.log.append(&line)?;
+        }
         self.phase = Phase::Aborted;
         self.view = View::default();
         Ok(())

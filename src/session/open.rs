@@ -77,10 +77,12 @@ pub struct Planned {
 
 #[derive(Debug)]
 enum Opening {
-    /// The participant's unfinished session, read back.
+    /// The participant's unfinished session, read back, and its session
+    /// lock (held from planning on; moved into the open log).
     Resume {
         read: Box<ReadLog>,
         files: SessionFiles,
+        lock: Option<std::fs::File>,
     },
     /// A new session with this header.
     New {
@@ -108,16 +110,24 @@ pub struct OpenLog {
 /// new one, or the participant's unfinished one when resuming. Reads only.
 /// `responder` is logged in a new header.
 ///
+/// One process per session (issue 31): a resumed session is chosen under
+/// the folder lock and its session lock is held from here on (released if
+/// the plan is dropped); a new one is refused here if one of the
+/// participant's sessions is open in another process, and checked again,
+/// under the folder lock, when its log is created ([`Planned::open`]).
+///
 /// # Errors
-/// Resuming without an unfinished session; an unreadable log.
+/// Resuming without an unfinished session; a session of the participant
+/// open in another process; an unreadable log.
 pub fn plan(
     dir: &ResultsDir,
     req: &SessionRequest<'_>,
     responder: &str,
 ) -> Result<Planned, SessionError> {
     let id = &req.protocol.id;
-    let sessions = dir.sessions(id, req.participant)?;
     if req.resume {
+        let folder = dir.lock_folder(false)?;
+        let sessions = dir.sessions(id, req.participant)?;
         let Some(last) = sessions.into_iter().next_back() else {
             return Err(SessionError::NothingToResume {
                 participant: req.participant.to_owned(),
@@ -125,6 +135,8 @@ pub fn plan(
                 dir: dir.root().to_owned(),
             });
         };
+        let lock = dir.lock_session(&last, req.participant)?;
+        drop(folder);
         let read = read_log(&last.log)?;
         if read.ended {
             return Err(SessionError::Ended {
@@ -138,10 +150,12 @@ pub fn plan(
             opening: Opening::Resume {
                 read: Box::new(read),
                 files: last,
+                lock: Some(lock),
             },
             streams: req.streams,
         });
     }
+    let sessions = dir.free_sessions(id, req.participant)?;
     let session = sessions.last().map_or(1, |s| s.session + 1);
     let files = dir.files(id, req.participant, session);
     let participant_index = req
@@ -222,14 +236,25 @@ impl Planned {
 
     /// Opens the session's log: a new session (header, empty CSV, dataset
     /// description) or the unfinished one (torn last line cut, a `resumed`
-    /// line appended, the CSV rewritten from the log).
+    /// line appended, the CSV rewritten from the log). The open log holds
+    /// the session lock.
+    ///
+    /// A new session's number is taken here, under the folder lock: it is
+    /// the next free one now (another process may have taken the planned
+    /// one meanwhile), and a session of the participant open in another
+    /// process refuses it.
     ///
     /// # Errors
-    /// The log exists (a new session never overwrites), or any I/O error.
-    pub fn open(&self, dir: &ResultsDir) -> Result<OpenLog, ResultsError> {
-        match &self.opening {
-            Opening::Resume { read, files } => {
-                let (mut log, torn_bytes) = SessionLog::reopen(&files.log, read.valid_len)?;
+    /// [`ResultsError::Busy`]; the log exists (a new session never
+    /// overwrites); or any I/O error.
+    pub fn open(&mut self, dir: &ResultsDir) -> Result<OpenLog, ResultsError> {
+        match &mut self.opening {
+            Opening::Resume { read, files, lock } => {
+                let file = match lock.take() {
+                    Some(file) => file,
+                    None => dir.lock_session(files, &read.header.participant)?,
+                };
+                let (mut log, torn_bytes) = SessionLog::reopen(file, &files.log, read.valid_len)?;
                 log.append(&LogLine::Resumed {
                     at_trial: read.next_trial(),
                     torn_bytes,
@@ -247,7 +272,15 @@ impl Planned {
                 })
             }
             Opening::New { header, files } => {
+                let folder = dir.lock_folder(true)?;
+                let sessions = dir.free_sessions(&header.protocol_id, &header.participant)?;
+                let session = sessions.last().map_or(1, |s| s.session + 1);
+                if session != header.session {
+                    header.session = session;
+                    *files = dir.files(&header.protocol_id, &header.participant, session);
+                }
                 let log = SessionLog::create(&files.log, (**header).clone())?;
+                drop(folder);
                 let read = ReadLog {
                     header: (**header).clone(),
                     trials: Vec::new(),

@@ -293,6 +293,8 @@ impl<R: Responder> Session<R> {
             simulated_s: self.t - self.start_t,
             csv: self.csv().to_owned(),
             log: self.log_path().to_owned(),
+            participant: self.participant().to_owned(),
+            interrupted: None,
         }
     }
 }

@@ -1,0 +1,514 @@
+//! Each data CSV held against its session log (issue 31): the log is the
+//! primary record and the CSV is made from it, so before anything is
+//! analysed every CSV row must be the row its log's record gives, once, in
+//! the log's order. `analyze` runs this first.
+//!
+//! Refused, each naming the file, line (and column) and trial: a CSV row
+//! doubled, missing, foreign (another study, participant or session) or
+//! unlike its log record; a CSV without its log (or a log with trials
+//! without its CSV); a log line that is not a whole record, a log without
+//! its header, or an empty log. Tolerated, with a notice: the torn last
+//! line of a killed session (a last line without its newline: the trials
+//! before it are analysed), and a session open in another process (left
+//! out: its files are still being written).
+
+use std::path::{Path, PathBuf};
+
+use super::export::data_csv;
+use super::folder::ResultsDir;
+use super::session_log::{LogLine, ReadLog, parse_log_lines};
+use super::{ResultsError, lock};
+use crate::problem::Problem;
+
+/// The start of the message of a data CSV without its session log (the
+/// command line adds how to analyse such data unchecked).
+pub const NO_LOG: &str = "no session log";
+
+/// The data CSVs to analyse, and what was found and tolerated.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Verified {
+    /// The data CSVs, sorted (sessions open elsewhere left out).
+    pub files: Vec<PathBuf>,
+    /// One line each: a torn last line left out, a session open in another
+    /// process left out.
+    pub notices: Vec<String>,
+}
+
+/// The data CSVs of `dir` (`data/*_data.csv`), sorted.
+#[must_use]
+pub fn data_files(dir: &Path) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir.join("data"))
+        .map(|entries| {
+            entries
+                .filter_map(Result::ok)
+                .map(|e| e.path())
+                .filter(|p| p.to_string_lossy().ends_with("_data.csv"))
+                .collect()
+        })
+        .unwrap_or_default();
+    files.sort();
+    files
+}
+
+/// Holds every data CSV of `dir` against its session log (module docs),
+/// on `jobs` threads; the first problem in file order is returned.
+///
+/// # Errors
+/// The first problem found.
+pub fn verify(dir: &Path, jobs: usize) -> Result<Verified, Problem> {
+    let files = data_files(dir);
+    let checked = crate::parallel::run(&files, jobs, |csv| check_file(dir, csv));
+    let mut out = Verified::default();
+    for (csv, result) in files.iter().zip(checked) {
+        let (analyse, notice) = result?;
+        if analyse {
+            out.files.push(csv.clone());
+        }
+        out.notices.extend(notice);
+    }
+    for log in ResultsDir::new(dir).logs() {
+        if let Some(problem) = log_without_csv(dir, &log) {
+            return Err(problem);
+        }
+    }
+    Ok(out)
+}
+
+/// A log with trials whose data CSV is missing (a session open elsewhere
+/// may not have written its CSV yet).
+fn log_without_csv(dir: &Path, log: &Path) -> Option<Problem> {
+    let name = log.file_name()?.to_string_lossy().into_owned();
+    let stem = name.strip_suffix("_log.jsonl")?;
+    let csv = dir.join("data").join(format!("{stem}_data.csv"));
+    if csv.exists() || lock::open_elsewhere(log).is_some() {
+        return None;
+    }
+    let bytes = std::fs::read(log).ok()?;
+    let (read, _) = parse_log_lines(log, &bytes).ok()?;
+    (!read.trials.is_empty()).then(|| {
+        Problem::new(
+            log.display().to_string(),
+            format!(
+                "its data CSV {} is missing (the log records {} trials)",
+                csv.display(),
+                read.trials.len()
+            ),
+        )
+    })
+}
+
+/// Checks one CSV; `(analyse it, a notice)`.
+fn check_file(dir: &Path, csv: &Path) -> Result<(bool, Option<String>), Problem> {
+    let name = csv
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let stem = name.strip_suffix("_data.csv").unwrap_or(&name);
+    let log = dir.join("logs").join(format!("{stem}_log.jsonl"));
+    let at = |place: String, message: String| Problem::new(place, message);
+    if !log.is_file() {
+        return Err(at(
+            csv.display().to_string(),
+            format!(
+                "{NO_LOG} {} to hold it against (the log is the primary record the CSV is made from)",
+                log.display()
+            ),
+        ));
+    }
+    if let Some(holder) = lock::open_elsewhere(&log) {
+        return Ok((
+            false,
+            Some(format!(
+                "{}: the session is open in another process{}: left out of this analysis; analyse again once it has ended",
+                log.display(),
+                holder.pid_text()
+            )),
+        ));
+    }
+    let bytes = std::fs::read(&log)
+        .map_err(|e| at(log.display().to_string(), format!("cannot read: {e}")))?;
+    let (read, lines) = parse_log_lines(&log, &bytes).map_err(|e| log_problem(e, &bytes))?;
+    let mut notice = None;
+    if read.torn_bytes > 0 {
+        let valid = usize::try_from(read.valid_len).unwrap_or(bytes.len());
+        // The torn line's number: one more than the lines before it.
+        let line = bytes[..valid].split(|&b| b == b'\n').count();
+        if bytes.ends_with(b"\n") {
+            // A whole line, yet no record: not a write a kill cut short.
+            let text = String::from_utf8_lossy(&bytes[valid..]);
+            let why = serde_json::from_str::<LogLine>(text.trim_end())
+                .err()
+                .map_or_else(|| "not a log record".to_owned(), |e| e.to_string());
+            return Err(at(
+                format!("{}: {line}:1", log.display()),
+                format!(
+                    "not a whole log record{}: {why}",
+                    after(&read, read.trials.len())
+                ),
+            ));
+        }
+        notice = Some(format!(
+            "{}: {line}:1: a torn last line ({} bytes: the session was stopped mid-write) is left out; the records before it are analysed",
+            log.display(),
+            read.torn_bytes
+        ));
+    }
+    let h = &read.header;
+    let own = ResultsDir::new(dir).files(&h.protocol_id, &h.participant, h.session);
+    if own.log != log {
+        return Err(at(
+            format!("{}: 1:1", log.display()),
+            format!(
+                "its header is session {} of '{}' in study '{}', whose files are named {}",
+                h.session,
+                h.participant,
+                h.protocol_id,
+                own.log
+                    .file_name()
+                    .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
+            ),
+        ));
+    }
+    let text = std::fs::read_to_string(csv)
+        .map_err(|e| at(csv.display().to_string(), format!("cannot read: {e}")))?;
+    compare(csv, &log, &text, &read, &lines)?;
+    Ok((true, notice))
+}
+
+/// A log's problem with the trial it follows, as a [`Problem`].
+fn log_problem(e: ResultsError, bytes: &[u8]) -> Problem {
+    match e {
+        ResultsError::Log {
+            path,
+            line,
+            column,
+            message,
+        } => {
+            // The last trial record before the bad line, for the message.
+            let before = bytes
+                .split(|&b| b == b'\n')
+                .take(line.saturating_sub(1))
+                .filter_map(|l| match serde_json::from_slice::<LogLine>(l) {
+                    Ok(LogLine::Trial(r)) => Some(r.trial),
+                    _ => None,
+                })
+                .last();
+            let after = before
+                .map(|t| format!(" (after trial {t}'s record)"))
+                .unwrap_or_default();
+            Problem::new(
+                format!("{path}: {line}:{column}"),
+                format!("{message}{after}"),
+            )
+        }
+        other => Problem::new(String::new(), other.to_string()),
+    }
+}
+
+/// ` (after trial T's record)` for the record before index `i`.
+fn after(read: &ReadLog, i: usize) -> String {
+    i.checked_sub(1)
+        .and_then(|k| read.trials.get(k))
+        .map(|r| format!(" (after trial {}'s record)", r.trial))
+        .unwrap_or_default()
+}
+
+/// One CSV record: its line (1-based) and its cells with their columns.
+struct Record {
+    line: usize,
+    cells: Vec<(String, usize)>,
+}
+
+impl Record {
+    fn cell(&self, i: Option<usize>) -> Option<&str> {
+        i.and_then(|i| self.cells.get(i)).map(|(c, _)| c.as_str())
+    }
+
+    fn column(&self, i: usize) -> usize {
+        self.cells.get(i).map_or(1, |(_, c)| *c)
+    }
+}
+
+/// Splits CSV text into records, honouring double quotes (a quoted cell
+/// may hold commas, quotes and line breaks).
+fn records(text: &str) -> Vec<Record> {
+    let mut out = Vec::new();
+    let (mut line, mut column) = (1, 1);
+    let mut record = Record {
+        line,
+        cells: Vec::new(),
+    };
+    let (mut cell, mut start, mut quoted, mut any) = (String::new(), 1, false, false);
+    let mut chars = text.chars().peekable();
+    while let Some(c) = chars.next() {
+        any = true;
+        match c {
+            '"' if quoted && chars.peek() == Some(&'"') => {
+                cell.push('"');
+                chars.next();
+                column += 1;
+            }
+            '"' => quoted = !quoted,
+            ',' if !quoted => {
+                record.cells.push((std::mem::take(&mut cell), start));
+                start = column + 1;
+            }
+            '\r' if !quoted && chars.peek() == Some(&'\n') => {}
+            '\n' if !quoted => {
+                record.cells.push((std::mem::take(&mut cell), start));
+                line += 1;
+                out.push(std::mem::replace(
+                    &mut record,
+                    Record {
+                        line,
+                        cells: Vec::new(),
+                    },
+                ));
+                (column, start, any) = (0, 1, false);
+            }
+            '\n' => {
+                cell.push(c);
+                line += 1;
+                column = 0;
+            }
+            _ => cell.push(c),
+        }
+        column += 1;
+    }
+    if any {
+        record.cells.push((cell, start));
+        out.push(record);
+    }
+    out
+}
+
+/// Two cells alike: the same text, or the same numbers (`;`-separated
+/// lists too), whatever their notation.
+fn alike(a: &str, b: &str) -> bool {
+    a == b
+        || (a.split(';').count() == b.split(';').count()
+            && a.split(';').zip(b.split(';')).all(|(x, y)| {
+                x == y
+                    || matches!(
+                        (x.trim().parse::<f64>(), y.trim().parse::<f64>()),
+                        (Ok(p), Ok(q)) if p == q || (p.is_nan() && q.is_nan())
+                    )
+            }))
+}
+
+/// Holds the CSV `text` against the rows its log gives (module docs).
+fn compare(
+    csv: &Path,
+    log: &Path,
+    text: &str,
+    read: &ReadLog,
+    lines: &[usize],
+) -> Result<(), Problem> {
+    let actual = records(text);
+    let expected = records(&data_csv(read));
+    let (Some(head), Some(exp_head)) = (actual.first(), expected.first()) else {
+        return Ok(());
+    };
+    let names: Vec<&str> = head.cells.iter().map(|(c, _)| c.as_str()).collect();
+    let held = Held {
+        csv,
+        log,
+        read,
+        lines,
+        // The CSV's columns that the log gives, by position in each.
+        map: exp_head
+            .cells
+            .iter()
+            .enumerate()
+            .filter_map(|(j, (name, _))| names.iter().position(|n| n == name).map(|i| (i, j)))
+            .collect(),
+        exp_trial: exp_head.cells.iter().position(|(c, _)| c == "trial"),
+        names,
+    };
+    let (actual, expected) = (&actual[1..], &expected[1..]);
+    let mut next = 0;
+    for (k, row) in actual.iter().enumerate() {
+        held.own(row)?;
+        if expected.get(next).is_some_and(|e| held.same(row, e)) {
+            next += 1;
+            continue;
+        }
+        return Err(held.unlike(&actual[..k], row, &expected[next..], next));
+    }
+    match read.trials.get(next) {
+        None => Ok(()),
+        Some(missing) => {
+            let more = read.trials.len() - next - 1;
+            Err(Problem::new(
+                format!(
+                    "{}: {}:1",
+                    csv.display(),
+                    actual.last().map_or(1, |r| r.line) + 1
+                ),
+                format!(
+                    "trial {} (log line {}) is missing from the CSV{}{}",
+                    missing.trial,
+                    lines[next],
+                    if more > 0 {
+                        format!(", and {more} more after it")
+                    } else {
+                        String::new()
+                    },
+                    if read.ended {
+                        ""
+                    } else {
+                        " (a session stopped between a trial's log line and its CSV row: resuming the session rewrites the CSV from the log)"
+                    }
+                ),
+            ))
+        }
+    }
+}
+
+/// A CSV and what its log gives, being compared.
+struct Held<'a> {
+    csv: &'a Path,
+    log: &'a Path,
+    read: &'a ReadLog,
+    /// Each trial record's log line.
+    lines: &'a [usize],
+    /// The CSV's column names.
+    names: Vec<&'a str>,
+    /// (CSV column, log-given column) of each column both have.
+    map: Vec<(usize, usize)>,
+    /// The log-given CSV's `trial` column.
+    exp_trial: Option<usize>,
+}
+
+impl Held<'_> {
+    fn col(&self, name: &str) -> Option<usize> {
+        self.names.iter().position(|n| *n == name)
+    }
+
+    fn trial(&self, r: &Record) -> String {
+        r.cell(self.col("trial")).unwrap_or("?").to_owned()
+    }
+
+    fn place(&self, r: &Record, column: usize) -> String {
+        format!("{}: {}:{column}", self.csv.display(), r.line)
+    }
+
+    /// The row's cells alike the log-given row's.
+    fn same(&self, a: &Record, e: &Record) -> bool {
+        self.map
+            .iter()
+            .all(|&(i, j)| alike(a.cell(Some(i)).unwrap_or(""), e.cell(Some(j)).unwrap_or("")))
+    }
+
+    /// The row is of this file's study, participant and session.
+    fn own(&self, row: &Record) -> Result<(), Problem> {
+        let h = &self.read.header;
+        let session = h.session.to_string();
+        for (name, own) in [
+            ("study", h.protocol_id.as_str()),
+            ("participant", h.participant.as_str()),
+            ("session", session.as_str()),
+        ] {
+            let at = self.col(name);
+            if let Some(value) = row.cell(at)
+                && value != own
+            {
+                return Err(Problem::new(
+                    self.place(row, row.column(at.unwrap_or(0))),
+                    format!(
+                        "trial {}: {name} is '{value}', but this is the CSV of session {} of '{}' in study '{}' (its log {})",
+                        self.trial(row),
+                        h.session,
+                        h.participant,
+                        h.protocol_id,
+                        self.log.display()
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Why `row` (after the rows `before`) is not the log's next row
+    /// (`rest[0]`, record `next`): doubled, preceded by missing rows,
+    /// unlike its record, or not in the log.
+    fn unlike(&self, before: &[Record], row: &Record, rest: &[Record], next: usize) -> Problem {
+        let message = if let Some(first) = before.iter().find(|a| a.cells == row.cells) {
+            format!(
+                "trial {}: the same row as line {}; its log records it once",
+                self.trial(row),
+                first.line
+            )
+        } else if let Some(skip) = rest.iter().position(|e| self.same(row, e)) {
+            format!(
+                "trial {} (log line {}) is missing from the CSV before this row{}",
+                self.read.trials[next].trial,
+                self.lines[next],
+                if skip > 1 {
+                    format!(", and {} more", skip - 1)
+                } else {
+                    String::new()
+                }
+            )
+        } else if let Some(e) = rest.first()
+            && e.cell(self.exp_trial) == row.cell(self.col("trial"))
+        {
+            let differs = self.map.iter().find(|&&(i, j)| {
+                !alike(
+                    row.cell(Some(i)).unwrap_or(""),
+                    e.cell(Some(j)).unwrap_or(""),
+                )
+            });
+            let &(i, j) = differs.unwrap_or(&(0, 0));
+            return Problem::new(
+                self.place(row, row.column(i)),
+                format!(
+                    "trial {}: {} is '{}', but its log (line {}) records '{}'",
+                    self.trial(row),
+                    self.names.get(i).unwrap_or(&"?"),
+                    row.cell(Some(i)).unwrap_or(""),
+                    self.lines[next],
+                    e.cell(Some(j)).unwrap_or("")
+                ),
+            );
+        } else {
+            format!(
+                "trial {}: this row is not in its log {}{}",
+                self.trial(row),
+                self.log.display(),
+                self.read
+                    .trials
+                    .get(next)
+                    .map(|r| format!(
+                        ", whose next record is trial {} (line {})",
+                        r.trial, self.lines[next]
+                    ))
+                    .unwrap_or_default()
+            )
+        };
+        Problem::new(self.place(row, 1), message)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn records_keep_lines_and_columns_through_quotes() {
+        let r = records("a,b\n\"x,1\",2\n3,\"y\"\"\nz\"\n");
+        assert_eq!(r.len(), 3);
+        assert_eq!(r[1].line, 2);
+        assert_eq!(r[1].cells, vec![("x,1".into(), 1), ("2".into(), 7)]);
+        assert_eq!(r[2].cells[1].0, "y\"\nz");
+    }
+
+    #[test]
+    fn cells_are_alike_in_any_notation_of_the_same_numbers() {
+        assert!(alike("0.25", "2.5e-1"));
+        assert!(alike("1;2.5", "1.0;2.5"));
+        assert!(!alike("1;2", "1;2;3"));
+        assert!(!alike("0.25", "0.250001"));
+        assert!(!alike("first", "second"));
+    }
+}
