@@ -386,3 +386,64 @@ fn bad_power_input_is_refused_with_its_place() {
     );
     assert!(!out.exists());
 }
+
+/// Issue 31: two processes on one shard would append to one journal. The
+/// second is refused while the first runs (exit 2, the holder's pid), a
+/// merge meanwhile says the shard is still running, and the first finishes
+/// its shard whole.
+#[test]
+fn a_shard_runs_in_one_process_at_a_time_issue_31() {
+    let tmp = tempfile::tempdir().unwrap();
+    let protocol = protocol_path("paired-quick");
+    let out = tmp.path().join("out");
+    let args: Vec<String> = [
+        "power",
+        protocol.to_str().unwrap(),
+        "--participants",
+        "4,6",
+        "--studies",
+        "60",
+        "--seed",
+        "3",
+        "--jobs",
+        "1",
+        "--shard",
+        "1/2",
+        "--out",
+        out.to_str().unwrap(),
+    ]
+    .map(String::from)
+    .to_vec();
+    let journal = out.join("power-shard-1-of-2.partial.jsonl");
+    let mut first = Command::new(BIN).args(&args).spawn().unwrap();
+    let lines = |p: &Path| std::fs::read_to_string(p).map_or(0, |t| t.lines().count());
+    while lines(&journal) < 3 {
+        assert!(first.try_wait().unwrap().is_none(), "finished too soon");
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    let second = Command::new(BIN).args(&args).output().unwrap();
+    assert_eq!(second.status.code(), Some(2), "{}", stderr(&second));
+    assert!(
+        stderr(&second).contains(&format!(
+            "shard 1/2 of this plan is being run by another process (pid {})",
+            first.id()
+        )),
+        "{}",
+        stderr(&second)
+    );
+    let merge = frictionlab(&["power-merge", out.to_str().unwrap()]);
+    assert_eq!(merge.status.code(), Some(2));
+    assert!(
+        stderr(&merge).contains(&format!(
+            "a shard still running in another process (pid {})",
+            first.id()
+        )),
+        "{}",
+        stderr(&merge)
+    );
+    assert!(first.wait().unwrap().success());
+    let shard: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("power-shard-1-of-2.json")).unwrap())
+            .unwrap();
+    assert_eq!(shard["studies"].as_array().unwrap().len(), 60);
+}

@@ -707,6 +707,10 @@ fn read_shards(dirs: &[PathBuf]) -> Result<(Vec<Found>, Vec<Problem>), PowerErro
 pub fn merge(dirs: &[PathBuf]) -> Result<(PlanHeader, Vec<StudyRecord>), PowerError> {
     let (shards, mut problems) = read_shards(dirs)?;
     let Some((first_path, first)) = shards.first() else {
+        if !problems.is_empty() {
+            // Only unfinished shards: say which, and whether they run.
+            return Err(PowerError::Input(problems));
+        }
         return Err(input(
             dirs.iter()
                 .map(|d| d.display().to_string())
