@@ -19,8 +19,9 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use frictionlab::analysis::{Check, analyze, analyze_with};
 use frictionlab::kinds::TrialData;
 use frictionlab::kinds::magnitude::MagnitudeData;
-use frictionlab::protocol::engine::{Status, TrialRecord};
-use frictionlab::results::{Header, LOG_FORMAT, LogLine, ReadLog, ResultsDir, data_csv};
+use frictionlab::kinds::{Header, LogLine, ReadLog, Registry, TrialRecord};
+use frictionlab::protocol::engine::Status;
+use frictionlab::results::{LOG_FORMAT, ResultsDir, data_csv};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -32,8 +33,8 @@ fn generate(dir: &Path) {
         "/protocols/magnitude-estimation.json"
     ))
     .unwrap_or_else(|e| panic!("the protocol: {e}"));
-    let mut protocol =
-        frictionlab::protocol::load::parse(&text).unwrap_or_else(|e| panic!("the protocol: {e:?}"));
+    let mut protocol = frictionlab::protocol::load::parse::<Registry>(&text)
+        .unwrap_or_else(|e| panic!("the protocol: {e:?}"));
     protocol.id = "bench".into();
     let results = ResultsDir::new(dir);
     for sub in ["data", "logs"] {
@@ -140,12 +141,15 @@ fn million(c: &mut Criterion) {
         .sample_size(10)
         .measurement_time(Duration::from_secs(20));
     group.bench_function("magnitude-1M-trials", |b| {
-        b.iter(|| black_box(analyze(dir.path()).unwrap_or_else(|e| panic!("analyze: {e}"))));
+        b.iter(|| {
+            black_box(analyze::<Registry>(dir.path()).unwrap_or_else(|e| panic!("analyze: {e}")))
+        });
     });
     group.bench_function("magnitude-1M-trials-csv-only", |b| {
         b.iter(|| {
             black_box(
-                analyze_with(dir.path(), Check::CsvOnly).unwrap_or_else(|e| panic!("analyze: {e}")),
+                analyze_with::<Registry>(dir.path(), Check::CsvOnly)
+                    .unwrap_or_else(|e| panic!("analyze: {e}")),
             )
         });
     });

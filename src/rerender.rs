@@ -158,7 +158,7 @@ pub fn rerender_file(path: &Path) -> Result<Rerendered, Problem> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| Problem::new(&file, format!("cannot read: {e}")))?;
     let rows = parse_stream(&file, &text)?;
-    let log = crate::results::read_log(&log_path)
+    let log = crate::results::read_log::<crate::kinds::Registry>(&log_path)
         .map_err(|e| Problem::new(log_path.display().to_string(), e.to_string()))?;
     let record = log
         .trials

@@ -13,14 +13,15 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 use frictionlab::analysis::{Analysis, Check, analyze_with, stats};
+use frictionlab::kinds::Registry;
 use frictionlab::problem::Problem;
-use frictionlab::protocol::Kind;
+use frictionlab::protocol::kind::Kinds;
 use frictionlab::results::COMMON_COLUMNS;
 use serde_json::Value;
 
 /// The fixtures' analysis: CSV-only, as they have no logs.
 fn analyze(dir: &Path) -> Result<Analysis, Problem> {
-    analyze_with(dir, Check::CsvOnly)
+    analyze_with::<Registry>(dir, Check::CsvOnly)
 }
 
 fn close(actual: f64, expected: f64) -> bool {
@@ -36,9 +37,9 @@ fn assert_close(actual: &Value, expected: f64, what: &str) {
 
 /// Writes a data CSV of `kind` with rows given as (column, value) pairs; the
 /// common columns default to a completed, non-practice trial.
-fn data(dir: &Path, name: &str, kind: Kind, rows: &[Vec<(&str, String)>]) {
+fn data(dir: &Path, name: &str, kind: &str, rows: &[Vec<(&str, String)>]) {
     let mut cols: Vec<&str> = COMMON_COLUMNS.to_vec();
-    cols.extend_from_slice(kind.columns());
+    cols.extend_from_slice(Registry::columns(kind).unwrap());
     let mut text = cols.join(",") + "\n";
     for (i, row) in rows.iter().enumerate() {
         let get = |c: &str| row.iter().find(|(k, _)| *k == c).map(|(_, v)| v.clone());
@@ -47,7 +48,7 @@ fn data(dir: &Path, name: &str, kind: Kind, rows: &[Vec<(&str, String)>]) {
             .map(|c| {
                 get(c).unwrap_or_else(|| match *c {
                     "study" => "fixture".into(),
-                    "kind" => kind.as_str().into(),
+                    "kind" => kind.into(),
                     "session" | "seed" => "1".into(),
                     "trial" => i.to_string(),
                     "block" => "main".into(),
@@ -98,7 +99,7 @@ fn magnitude_fixture(dir: &Path) {
     data(
         dir,
         "study-fixture_subject-AB_session-1",
-        Kind::MagnitudeEstimation,
+        "magnitude_estimation",
         &rows,
     );
 }
@@ -227,7 +228,7 @@ fn magnitude_drivers_separate_mu_s_from_mu_k() {
     data(
         dir.path(),
         "study-fixture_subject-A_session-1",
-        Kind::MagnitudeEstimation,
+        "magnitude_estimation",
         &rows,
     );
     let s = analyze(dir.path()).unwrap().summary;
@@ -285,7 +286,7 @@ fn paired_statistics_match_hand_computation() {
     data(
         dir.path(),
         "study-fixture_subject-all_session-1",
-        Kind::PairedComparison,
+        "paired_comparison",
         &rows,
     );
     let p = &analyze(dir.path()).unwrap().summary["paired_comparison"];
@@ -350,7 +351,7 @@ fn fitts_statistics_match_hand_computation() {
     data(
         dir.path(),
         "study-fixture_subject-P_session-1",
-        Kind::Fitts,
+        "fitts",
         &rows,
     );
     let f = &analyze(dir.path()).unwrap().summary["fitts"];
@@ -493,7 +494,7 @@ fn fitts_accuracy_and_throughput_use_every_click_and_aborted_tests_are_counted()
     data(
         dir.path(),
         "study-fixture_subject-P_session-1",
-        Kind::Fitts,
+        "fitts",
         &rows,
     );
     let analysis = analyze(dir.path()).unwrap();
@@ -683,7 +684,7 @@ fn statistics_that_cannot_be_computed_are_marked_n_a() {
     data(
         dir.path(),
         "study-x_subject-A_session-1",
-        Kind::MagnitudeEstimation,
+        "magnitude_estimation",
         &rows,
     );
     let s = analyze(dir.path()).unwrap().summary;
@@ -709,7 +710,7 @@ fn statistics_that_cannot_be_computed_are_marked_n_a() {
     data(
         dir.path(),
         "study-x_subject-A_session-1",
-        Kind::MagnitudeEstimation,
+        "magnitude_estimation",
         &rows,
     );
     let s = analyze(dir.path()).unwrap().summary;
@@ -721,7 +722,7 @@ fn statistics_that_cannot_be_computed_are_marked_n_a() {
     data(
         dir.path(),
         "study-y_subject-A_session-1",
-        Kind::Fitts,
+        "fitts",
         &[fitts_row("A", "viscous", 2.0, 1.0, 0)],
     );
     let s = analyze(dir.path()).unwrap().summary;
@@ -755,7 +756,7 @@ fn the_display_effect_is_a_paired_t_test_across_participants() {
     data(
         dir.path(),
         "study-fixture_subject-ABCD_session-1",
-        Kind::MagnitudeEstimation,
+        "magnitude_estimation",
         &rows,
     );
     let s = analyze(dir.path()).unwrap().summary;

@@ -7,6 +7,7 @@
 )]
 
 use frictionlab::analysis::analyze;
+use frictionlab::kinds::Registry;
 use frictionlab::protocol::load::parse;
 use frictionlab::results::ResultsDir;
 use frictionlab::session::{Simulation, simulate_participants};
@@ -88,7 +89,7 @@ fn check_against(
         &|_| {},
     )
     .unwrap();
-    let fresh = analyze(&out).unwrap().summary;
+    let fresh = analyze::<Registry>(&out).unwrap().summary;
     let committed: Value = serde_json::from_str(
         &std::fs::read_to_string(format!("{root}/analysis/{committed_path}")).unwrap(),
     )
@@ -144,13 +145,11 @@ fn robustness_replays_are_in_sync() {
 fn the_claims_table_is_generated_from_the_committed_summaries() {
     let root = env!("CARGO_MANIFEST_DIR");
     let text = std::fs::read_to_string(format!("{root}/protocols/fitts.json")).unwrap();
-    let ids = frictionlab::analysis::claims::narrowest_ids(&parse(&text).unwrap()).unwrap();
+    let ids = frictionlab::claims::narrowest_ids(&parse(&text).unwrap()).unwrap();
     assert_eq!(ids.len(), 3, "seed 002 has three 2 mm levels");
-    let fresh = frictionlab::analysis::claims::claims(
-        std::path::Path::new(&format!("{root}/analysis")),
-        &ids,
-    )
-    .unwrap();
+    let fresh =
+        frictionlab::claims::claims(std::path::Path::new(&format!("{root}/analysis")), &ids)
+            .unwrap();
     let committed = std::fs::read_to_string(format!("{root}/analysis/claims.md")).unwrap();
     assert!(
         fresh == committed,

@@ -14,8 +14,9 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use frictionlab::kinds::{Action, LogLine, Registry};
 use frictionlab::protocol::engine::Status;
-use frictionlab::results::{LogLine, read_log};
+use frictionlab::results::read_log;
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_frictionlab"))
@@ -75,7 +76,7 @@ fn a_quick_session_runs_end_to_end_on_the_emulated_device() {
     emu.wait().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = std::fs::read_to_string(log_of(&out, "paired-quick")).unwrap();
-    let log = read_log(&log_of(&out, "paired-quick")).unwrap();
+    let log = read_log::<Registry>(&log_of(&out, "paired-quick")).unwrap();
     assert!(log.ended && log.trials.len() == 1 && log.trials[0].status == Status::Completed);
     assert_eq!(log.header.device, dev.to_str().unwrap());
     let stats = text
@@ -105,7 +106,7 @@ fn an_emulator_killed_mid_trial_and_restarted_costs_one_requeued_trial() {
     emu.kill().unwrap();
     emu.wait().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let log = read_log(&log_of(&out, "magnitude-quick")).unwrap();
+    let log = read_log::<Registry>(&log_of(&out, "magnitude-quick")).unwrap();
     assert!(log.ended);
     let aborted: Vec<_> = log
         .trials
@@ -140,7 +141,9 @@ fn a_device_that_never_comes_back_ends_the_run_with_exit_3() {
     // first trial ends on a loaded machine).
     let log = log_of(&out, "magnitude-quick");
     let waited = Instant::now();
-    while !read_log(&log).is_ok_and(|l| l.trials.iter().any(|r| r.status == Status::Completed)) {
+    while !read_log::<Registry>(&log)
+        .is_ok_and(|l| l.trials.iter().any(|r| r.status == Status::Completed))
+    {
         assert!(
             waited.elapsed() < Duration::from_mins(1),
             "no trial completed"
@@ -162,7 +165,7 @@ fn a_device_that_never_comes_back_ends_the_run_with_exit_3() {
         stderr.contains("no answer from the device for 1.5 s"),
         "{stderr}"
     );
-    let log = read_log(&log_of(&out, "magnitude-quick")).unwrap();
+    let log = read_log::<Registry>(&log_of(&out, "magnitude-quick")).unwrap();
     assert!(!log.ended);
     let completed = log
         .trials
@@ -263,7 +266,8 @@ fn a_live_gui_session_runs_on_the_emulated_device() {
         "{}/protocols/magnitude-quick.json",
         env!("CARGO_MANIFEST_DIR")
     );
-    let (protocol, bytes) = frictionlab::protocol::load::read(Path::new(&path)).unwrap();
+    let (protocol, bytes) =
+        frictionlab::protocol::load::read::<Registry>(Path::new(&path)).unwrap();
     let results = frictionlab::results::ResultsDir::new(dir.path().join("results"));
     let device = DeviceChoice::Port(dev.clone());
     let req = SessionRequest {
@@ -315,7 +319,7 @@ fn a_live_gui_session_runs_on_the_emulated_device() {
         5000.0,
         "stick-slip needs 5 kHz"
     );
-    let read = read_log(live.log_path()).unwrap();
+    let read = read_log::<Registry>(live.log_path()).unwrap();
     assert!(read.ended);
     assert_eq!(read.header.responder, "gui");
     assert_eq!(read.header.device, device.label());
@@ -345,7 +349,8 @@ fn a_live_session_on_a_silent_device_writes_nothing() {
     let port = serialport::SerialPort::name(&slave).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = format!("{}/protocols/paired-quick.json", env!("CARGO_MANIFEST_DIR"));
-    let (protocol, bytes) = frictionlab::protocol::load::read(Path::new(&path)).unwrap();
+    let (protocol, bytes) =
+        frictionlab::protocol::load::read::<Registry>(Path::new(&path)).unwrap();
     let out = dir.path().join("results");
     let results = frictionlab::results::ResultsDir::new(&out);
     let req = SessionRequest {
@@ -393,7 +398,9 @@ fn a_resumed_device_session_keeps_its_clock_going() {
     // Instructions, then 2 s trials: two trials are logged after about 4.5 s.
     let log = log_of(&out, "magnitude-quick");
     let start = Instant::now();
-    while read_log(&log).map_or(0, |l| l.trials.len()) < 2 && start.elapsed().as_secs() < 30 {
+    while read_log::<Registry>(&log).map_or(0, |l| l.trials.len()) < 2
+        && start.elapsed().as_secs() < 30
+    {
         std::thread::sleep(Duration::from_millis(20));
     }
     first.kill().unwrap(); // SIGKILL
@@ -404,7 +411,7 @@ fn a_resumed_device_session_keeps_its_clock_going() {
     emu.kill().unwrap();
     emu.wait().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let read = read_log(&log).unwrap();
+    let read = read_log::<Registry>(&log).unwrap();
     assert!(read.ended && read.trials.len() >= 6, "{:?}", read.trials);
     let mut last_end = 0.0_f64;
     let mut runs = std::collections::HashMap::new();
@@ -457,10 +464,10 @@ impl frictionlab::session::Responder for Waiting {
     fn on_action(
         &mut self,
         _: f64,
-        action: &frictionlab::protocol::engine::Action,
-        _: Option<&frictionlab::protocol::plan::PlannedTrial>,
+        action: &frictionlab::kinds::Action,
+        _: Option<&frictionlab::kinds::PlannedTrial>,
     ) -> frictionlab::session::Reaction {
-        use frictionlab::protocol::engine::{Action, Input, Screen};
+        use frictionlab::protocol::engine::{Input, Screen};
         let inputs = match action {
             Action::Show(Screen::Instructions(_) | Screen::Break { .. }) => vec![Input::Continue],
             _ => vec![],
@@ -489,18 +496,18 @@ impl frictionlab::session::Responder for Waiting {
     }
 }
 
-fn magnitude_quick() -> (frictionlab::protocol::Protocol, Vec<u8>) {
+fn magnitude_quick() -> (frictionlab::kinds::Protocol, Vec<u8>) {
     let path = format!(
         "{}/protocols/magnitude-quick.json",
         env!("CARGO_MANIFEST_DIR")
     );
-    frictionlab::protocol::load::read(Path::new(&path)).unwrap()
+    frictionlab::protocol::load::read::<Registry>(Path::new(&path)).unwrap()
 }
 
 /// The one record of a session whose device was lost in trial 0's answer
 /// phase: aborted, re-queued, "device lost", after the 2 s exploration.
 fn assert_lost_in_answer_phase(log: &Path) {
-    let read = read_log(log).unwrap();
+    let read = read_log::<Registry>(log).unwrap();
     assert_eq!(read.trials.len(), 1, "{:?}", read.trials);
     let r = &read.trials[0];
     assert_eq!(
@@ -645,7 +652,7 @@ fn a_trial_aborted_for_a_stalled_device_records_nothing_from_after_the_stall() {
     live.abort().unwrap();
     unplug(emu, &dev);
 
-    let read = read_log(live.log_path()).unwrap();
+    let read = read_log::<Registry>(live.log_path()).unwrap();
     let r = &read.trials[0];
     assert_eq!(
         (r.status, r.requeued, r.abort_reason.as_deref()),
@@ -690,7 +697,7 @@ fn resends_over_a_lagging_link_restart_nothing_and_rerender_bit_exact() {
         .unwrap();
     unplug(emu, &dev);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let log = read_log(&log_of(&out, "magnitude-quick")).unwrap();
+    let log = read_log::<Registry>(&log_of(&out, "magnitude-quick")).unwrap();
     assert_eq!(common::completed_trials(&log), (0..6).collect::<Vec<_>>());
 
     let r = common::rerender_all(&out);

@@ -14,12 +14,12 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use frictionlab::analysis::discrimination::fit_track;
+use frictionlab::kinds::discrimination::analysis::fit_track;
 use frictionlab::kinds::discrimination::{DiscriminationDesign, Method};
-use frictionlab::kinds::{Design, TrialData};
+use frictionlab::kinds::{Design, Protocol, Registry, TrialData};
 use frictionlab::participant::Population;
 use frictionlab::participant::percept::BreakAway;
-use frictionlab::protocol::Protocol;
+
 use frictionlab::results::{ResultsDir, read_log};
 use frictionlab::session::{Simulation, simulate_participants};
 use frictionlab_psychophysics::psychometric::phi_inverse;
@@ -38,8 +38,9 @@ fn one_level(method: serde_json::Value) -> (Protocol, Vec<u8>) {
     v["design"]["method"] = method;
     v["design"]["fit"]["bootstrap"] = 200.into();
     let bytes = serde_json::to_vec_pretty(&v).unwrap();
-    let protocol = frictionlab::protocol::load::parse(std::str::from_utf8(&bytes).unwrap())
-        .unwrap_or_else(|e| panic!("{e:?}"));
+    let protocol =
+        frictionlab::protocol::load::parse::<Registry>(std::str::from_utf8(&bytes).unwrap())
+            .unwrap_or_else(|e| panic!("{e:?}"));
     (protocol, bytes)
 }
 
@@ -99,7 +100,7 @@ fn true_threshold(p: &Protocol, bytes: &[u8], pop: &Population, sigma: f64) -> f
     let [log]: [PathBuf; 1] = common::session_logs(dir.path()).try_into().unwrap();
     let traits = frictionlab::participant::Traits::draw(99, "sim-001", pop);
     let mut points: Vec<(f64, f64)> = Vec::new();
-    for r in read_log(&log).unwrap().trials {
+    for r in read_log::<Registry>(&log).unwrap().trials {
         let TrialData::Discrimination(d) = &r.data else {
             panic!("a discrimination record");
         };
@@ -187,7 +188,7 @@ fn recover(method: serde_json::Value, truth: f64) -> Recovery {
         stop: None,
     };
     simulate_participants(&ResultsDir::new(dir.path()), &sim, &|_| {}).unwrap();
-    let analysis = frictionlab::analysis::analyze(dir.path()).unwrap();
+    let analysis = frictionlab::analysis::analyze::<Registry>(dir.path()).unwrap();
     let fits = analysis.summary["discrimination"]["fits"]
         .as_array()
         .unwrap();
@@ -222,7 +223,7 @@ fn recover(method: serde_json::Value, truth: f64) -> Recovery {
     }
     let mut answers = Vec::new();
     for log in common::session_logs(dir.path()) {
-        let read = read_log(&log).unwrap();
+        let read = read_log::<Registry>(&log).unwrap();
         answers.push(
             read.trials
                 .iter()

@@ -19,6 +19,7 @@ use std::sync::{Mutex, PoisonError, RwLock, RwLockReadGuard, RwLockWriteGuard};
 use std::time::{Duration, Instant};
 
 use frictionlab::device::wire::{Decoder, Message, PROTOCOL_VERSION, frame};
+use frictionlab::kinds::Registry;
 use frictionlab::results::read_log;
 use serialport::{SerialPort, TTYPort};
 
@@ -85,7 +86,7 @@ fn a_session_of_runs_on(
         "logs/study-{}_subject-p_session-{session}_log.jsonl",
         id.replace('-', "")
     ));
-    let log = read_log(&log).unwrap();
+    let log = read_log::<Registry>(&log).unwrap();
     assert!(log.ended);
     assert_eq!(
         common::completed_trials(&log),
@@ -302,7 +303,7 @@ fn sessions_on_an_on_board_emulator_complete_and_rerender_bit_exact_issue_15() {
             "logs/study-{}_subject-p_session-1_log.jsonl",
             protocol.replace('-', "")
         ));
-        let log = read_log(&log).unwrap();
+        let log = read_log::<Registry>(&log).unwrap();
         for r in &log.trials {
             assert!(
                 !r.rendering.is_empty(),

@@ -8,9 +8,8 @@
 use frictionlab::kinds::fitts::FittsData;
 use frictionlab::kinds::magnitude::MagnitudeData;
 use frictionlab::kinds::paired::PairedData;
-use frictionlab::protocol::engine::{
-    Action, Answer, Choice, Engine, Input, Question, Screen, Status, TrialData, TrialRecord,
-};
+use frictionlab::kinds::{Action, Engine, TrialData, TrialRecord};
+use frictionlab::protocol::engine::{Answer, Choice, Input, Question, Screen, Status};
 use frictionlab::protocol::load::parse;
 use frictionlab::protocol::plan::resolve;
 

@@ -23,6 +23,7 @@ use std::sync::{Mutex, MutexGuard, OnceLock};
 use std::time::{Duration, Instant};
 
 use frictionlab::device::wire::{Decoder, MAX_FRAME, Message, encode, status};
+use frictionlab::kinds::Registry;
 use frictionlab::protocol::engine::{RenderMode, Status};
 use frictionlab::results::read_log;
 
@@ -213,7 +214,7 @@ fn quick_sessions_run_on_the_firmware_in_qemu_and_rerender_bit_exact_issue_16() 
         let out = dir.path().join(protocol);
         let o = run_session(protocol, &dev, &out, &[]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let log = read_log(&log_path(&out, protocol)).unwrap();
+        let log = read_log::<Registry>(&log_path(&out, protocol)).unwrap();
         assert!(log.ended);
         assert_eq!(
             common::completed_trials(&log),
@@ -292,7 +293,7 @@ fn a_session_survives_qemu_killed_and_restarted_issue_16() {
     };
     // Kill QEMU once a trial is on disk, in the middle of the next one.
     let start = Instant::now();
-    while read_log(&log).map_or(true, |l| l.trials.is_empty()) {
+    while read_log::<Registry>(&log).map_or(true, |l| l.trials.is_empty()) {
         assert!(start.elapsed() < Duration::from_mins(1), "no trial logged");
         std::thread::sleep(Duration::from_millis(50));
     }
@@ -313,7 +314,7 @@ fn a_session_survives_qemu_killed_and_restarted_issue_16() {
         let o = run_session("magnitude-quick", &dev, &out, &["--resume"]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     }
-    let log = read_log(&log).unwrap();
+    let log = read_log::<Registry>(&log).unwrap();
     assert!(log.ended);
     assert_eq!(common::completed_trials(&log), (0..6).collect::<Vec<_>>());
     let aborted: Vec<_> = log

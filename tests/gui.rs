@@ -17,8 +17,9 @@ use egui_kittest::{
     kittest::{NodeT, Queryable},
 };
 use frictionlab::gui::{FrictionlabApp, Launch, to_screen};
+use frictionlab::kinds::{LogLine, Registry};
 use frictionlab::protocol::engine::Screen;
-use frictionlab::results::{LogLine, read_log};
+use frictionlab::results::read_log;
 use frictionlab::session::{LiveSession, Phase};
 
 const STEP_S: f32 = 0.05;
@@ -222,7 +223,7 @@ fn a_quick_magnitude_session_runs_by_clicks_and_typed_numbers_and_ends_with_its_
     assert_eq!(rows.len(), 1 + 6, "header and 6 trials");
     assert!(column(&rows, "status").iter().all(|s| s == "completed"));
     assert!(column(&rows, "magnitude").iter().all(|m| m == "2.5"));
-    let read = read_log(l.log_path()).unwrap();
+    let read = read_log::<Registry>(l.log_path()).unwrap();
     assert!(read.ended);
     assert_eq!(read.header.responder, "gui");
     assert_eq!(read.header.device, "sim");
@@ -254,12 +255,12 @@ fn bad_magnitude_entries_are_refused_with_a_message_and_never_logged() {
             "entry {text:?}"
         );
         h.get_by_label(message);
-        let read = read_log(live(&h).log_path()).unwrap();
+        let read = read_log::<Registry>(live(&h).log_path()).unwrap();
         assert!(read.trials.is_empty(), "{text:?} was logged");
     }
     type_into(&mut h, "Your number", " 7 ");
     click(&mut h, "Submit");
-    let read = read_log(live(&h).log_path()).unwrap();
+    let read = read_log::<Registry>(live(&h).log_path()).unwrap();
     assert_eq!(read.trials.len(), 1);
     assert!(live(&h).view().refused.is_none());
 }
@@ -273,7 +274,7 @@ fn a_paired_comparison_session_switches_stimuli_takes_the_answer_and_finishes() 
     run_to_end(&mut h, "1", 20);
     let l = live(&h);
     assert_eq!(l.phase(), Phase::Finished);
-    let read = read_log(l.log_path()).unwrap();
+    let read = read_log::<Registry>(l.log_path()).unwrap();
     assert_eq!(read.trials.len(), 1);
     let rows = csv_rows(l.csv());
     assert_eq!(column(&rows, "choice"), ["second"]);
@@ -371,7 +372,7 @@ fn abort_then_resume_continues_where_the_session_stopped() {
     click(&mut h, "Abort session");
     assert_eq!(live(&h).phase(), Phase::Aborted);
     let log = live(&h).log_path().to_owned();
-    let read = read_log(&log).unwrap();
+    let read = read_log::<Registry>(&log).unwrap();
     assert!(!read.ended);
     assert_eq!(read.next_trial(), 2);
     let aborted: Vec<_> = read.trials.iter().filter(|r| r.requeued).collect();
@@ -386,7 +387,7 @@ fn abort_then_resume_continues_where_the_session_stopped() {
     assert_eq!(live(&h).session(), 1);
     assert_eq!(live(&h).log_path(), log);
     run_to_end(&mut h, "4", 40);
-    let read = read_log(&log).unwrap();
+    let read = read_log::<Registry>(&log).unwrap();
     assert!(read.ended);
     let completed: Vec<usize> = read
         .trials

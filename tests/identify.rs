@@ -14,6 +14,7 @@ use std::process::Command;
 
 use frictionlab::friction::{ModelParams, Validate};
 use frictionlab::identify::{self, DEFAULT_DV_M_S, Record};
+use frictionlab::kinds::Registry;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -398,7 +399,7 @@ fn sessions_record_each_trials_device_stream_and_identify_reads_it() {
         .unwrap();
     assert!(status.status.success(), "{status:?}");
     let log = out.join("logs/study-fittsquick_subject-s1_session-1_log.jsonl");
-    let read = frictionlab::results::read_log(&log).unwrap();
+    let read = frictionlab::results::read_log::<Registry>(&log).unwrap();
     assert_eq!(read.trials.len(), 4);
     let mut identified = 0;
     for r in &read.trials {

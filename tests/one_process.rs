@@ -14,8 +14,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+use frictionlab::kinds::{LogLine, Registry};
 use frictionlab::protocol::engine::Status;
-use frictionlab::results::{LogLine, read_log};
+use frictionlab::results::read_log;
 
 fn protocol(name: &str) -> String {
     format!("{}/protocols/{name}.json", env!("CARGO_MANIFEST_DIR"))
@@ -74,7 +75,7 @@ fn csv_of(out: &Path, participant: &str) -> PathBuf {
 fn wait_for_records(log: &Path, n: usize) {
     let start = Instant::now();
     loop {
-        if read_log(log).is_ok_and(|r| r.trials.len() >= n) {
+        if read_log::<Registry>(log).is_ok_and(|r| r.trials.len() >= n) {
             return;
         }
         assert!(
@@ -196,7 +197,7 @@ fn a_second_process_on_an_open_session_is_refused_and_writes_nothing_issue_31() 
         assert_eq!(others(), before, "{what} wrote nothing");
     }
     assert!(holder.wait().unwrap().success());
-    let read = read_log(&log).unwrap();
+    let read = read_log::<Registry>(&log).unwrap();
     assert!(read.ended);
     assert_eq!(read.torn_bytes, 0);
     let mut trials: Vec<usize> = read.trials.iter().map(|r| r.trial).collect();
@@ -249,7 +250,11 @@ fn the_lock_dies_with_its_holder_under_kill_9_issue_31() {
     holder.wait().unwrap();
     let o = run(dir.path(), "k9", &["--resume", "--pace", "100"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert!(read_log(&log_of(dir.path(), "k9", 1)).unwrap().ended);
+    assert!(
+        read_log::<Registry>(&log_of(dir.path(), "k9", 1))
+            .unwrap()
+            .ended
+    );
 }
 
 /// SIGTERM and SIGINT mid-trial: the trial is logged as aborted with the
@@ -282,7 +287,7 @@ fn a_signal_mid_trial_logs_it_as_interrupted_and_the_resume_presents_it_again_is
             "{stderr}"
         );
         assert!(stderr.contains("--resume"), "{stderr}");
-        let read = read_log(&log).unwrap();
+        let read = read_log::<Registry>(&log).unwrap();
         let last = read.trials.last().unwrap();
         assert_eq!(last.trial, 2, "SIG{name} landed in trial 2");
         assert_eq!(last.status, Status::Aborted);
@@ -308,7 +313,7 @@ fn a_signal_mid_trial_logs_it_as_interrupted_and_the_resume_presents_it_again_is
         let o = run(dir.path(), "s", &["--resume", "--pace", "1000"]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         assert!(String::from_utf8_lossy(&o.stdout).contains("resumed at trial 2"));
-        let read = read_log(&log).unwrap();
+        let read = read_log::<Registry>(&log).unwrap();
         assert!(read.ended);
         assert_eq!(common::completed_trials(&read), (0..6).collect::<Vec<_>>());
         assert_rows_alike(

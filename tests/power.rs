@@ -9,6 +9,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use frictionlab::kinds::Registry;
 use frictionlab::participant::Population;
 use frictionlab::participant::population::PairedPreference;
 use frictionlab::power::{self, Plan, PlanHeader, Shard};
@@ -57,7 +58,7 @@ fn exact_power(n: i32, q: f64, alpha: f64) -> f64 {
 /// within 2 Monte Carlo standard errors of it at each size.
 #[test]
 fn estimated_power_matches_the_exact_binomial_power_within_two_mcse() {
-    let (protocol, bytes) = load::read(&protocol_path("paired-quick")).unwrap();
+    let (protocol, bytes) = load::read::<Registry>(&protocol_path("paired-quick")).unwrap();
     let q = 0.75;
     let population = Population {
         paired_preference: Some(PairedPreference {

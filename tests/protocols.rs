@@ -14,10 +14,11 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::process::Command;
 
+use frictionlab::kinds::{Design, Protocol, Registry, TrialSpec};
 use frictionlab::problem::Problem as LoadError;
 use frictionlab::protocol::load::parse;
-use frictionlab::protocol::plan::{TrialSpec, resolve};
-use frictionlab::protocol::{Design, Protocol, Randomization, json_schema};
+use frictionlab::protocol::plan::resolve;
+use frictionlab::protocol::{Randomization, json_schema};
 use proptest::prelude::*;
 use serde_json::{Value, json};
 
@@ -27,7 +28,7 @@ fn shipped(name: &str) -> (String, Protocol) {
         env!("CARGO_MANIFEST_DIR")
     ))
     .unwrap();
-    let p = parse(&text).unwrap_or_else(|e| panic!("{name}: {e:?}"));
+    let p = parse::<Registry>(&text).unwrap_or_else(|e| panic!("{name}: {e:?}"));
     (text, p)
 }
 
@@ -115,13 +116,13 @@ fn schemas_are_up_to_date() {
     let on_disk =
         std::fs::read_to_string(format!("{root}/protocols/protocol.schema.json")).unwrap();
     assert!(
-        on_disk == json_schema(),
+        on_disk == json_schema::<Registry>(),
         "protocols/protocol.schema.json is stale; {fix}"
     );
     let on_disk =
         std::fs::read_to_string(format!("{root}/results-schema/log-line.schema.json")).unwrap();
     assert!(
-        on_disk == frictionlab::results::log_json_schema(),
+        on_disk == frictionlab::results::log_json_schema::<Registry>(),
         "log-line.schema.json is stale; {fix}"
     );
 }
@@ -131,14 +132,14 @@ fn broken(edit: impl FnOnce(&mut Value)) -> Vec<LoadError> {
     let (text, _) = shipped("magnitude-quick");
     let mut v: Value = serde_json::from_str(&text).unwrap();
     edit(&mut v);
-    parse(&v.to_string()).expect_err("should be refused")
+    parse::<Registry>(&v.to_string()).expect_err("should be refused")
 }
 
 fn fitts_broken(edit: impl FnOnce(&mut Value)) -> Vec<LoadError> {
     let (text, _) = shipped("fitts-quick");
     let mut v: Value = serde_json::from_str(&text).unwrap();
     edit(&mut v);
-    parse(&v.to_string()).expect_err("should be refused")
+    parse::<Registry>(&v.to_string()).expect_err("should be refused")
 }
 
 fn has(errors: &[LoadError], path: &str, needle: &str) -> bool {
@@ -149,7 +150,7 @@ fn has(errors: &[LoadError], path: &str, needle: &str) -> bool {
 
 #[test]
 fn broken_protocols_name_the_json_path_and_reason() {
-    let e = parse("{\"id\": \"x\",\n  \"title\": }").unwrap_err();
+    let e = parse::<Registry>("{\"id\": \"x\",\n  \"title\": }").unwrap_err();
     assert_eq!(e[0].place, "2:12", "syntax errors give line:column: {e:?}");
 
     let e = broken(|v| v["repetitions"] = json!("two"));
@@ -417,14 +418,14 @@ proptest! {
         let (text, _) = shipped(name);
         let mut v: Value = serde_json::from_str(&text).unwrap();
         mutate(&mut v, &path, &replacement);
-        if let Ok(p) = parse(&v.to_string()) {
-            let again = parse(&serde_json::to_string(&p).unwrap()).unwrap();
+        if let Ok(p) = parse::<Registry>(&v.to_string()) {
+            let again = parse::<Registry>(&serde_json::to_string(&p).unwrap()).unwrap();
             prop_assert_eq!(again, p);
         }
     }
 
     #[test]
     fn the_loader_never_panics_on_arbitrary_text(text in "\\PC{0,200}") {
-        let _ = parse(&text);
+        let _ = parse::<Registry>(&text);
     }
 }

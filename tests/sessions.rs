@@ -17,7 +17,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::Duration;
 
-use frictionlab::results::{LogLine, parse_log, read_log};
+use frictionlab::kinds::{LogLine, Registry};
+use frictionlab::results::{parse_log, read_log};
 use proptest::prelude::*;
 
 fn protocol(name: &str) -> String {
@@ -116,7 +117,7 @@ fn a_session_writes_the_contract_files() {
         header.split(',').all(|c| vars.contains(&c)),
         "every column listed"
     );
-    let log = read_log(
+    let log = read_log::<Registry>(
         &dir.path()
             .join("logs/study-fittsquick_subject-P01_session-1_log.jsonl"),
     )
@@ -330,7 +331,7 @@ fn a_torn_last_line_is_ignored_reported_and_the_session_resumes() {
         &lines[4][..lines[4].len() / 2]
     );
     std::fs::write(&log, &torn).unwrap();
-    let read = read_log(&log).unwrap();
+    let read = read_log::<Registry>(&log).unwrap();
     assert_eq!((read.trials.len(), read.ended), (3, false));
     assert_eq!(read.torn_bytes as usize, lines[4].len() / 2);
     let o = run(
@@ -389,7 +390,7 @@ fn killed_between_the_last_trials_log_line_and_its_csv_row_the_resume_restores_t
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(std::fs::read_to_string(&csv).unwrap(), reference);
-    assert!(read_log(&log).unwrap().ended);
+    assert!(read_log::<Registry>(&log).unwrap().ended);
 }
 
 #[test]
@@ -447,7 +448,7 @@ fn killed_at_random_moments_then_resumed_every_trial_is_logged_once_with_the_sam
         break;
     }
     assert!(kills >= 3, "the run was interrupted {kills} times");
-    let log = read_log(
+    let log = read_log::<Registry>(
         &dir.path()
             .join("logs/study-magnitudequick_subject-k_session-1_log.jsonl"),
     )
@@ -499,7 +500,7 @@ proptest! {
         let bytes = sample_log();
         let n = (cut * bytes.len() as f64) as usize;
         let first_line = bytes.iter().position(|&b| b == b'\n').unwrap() + 1;
-        match parse_log(Path::new("log"), &bytes[..n]) {
+        match parse_log::<Registry>(Path::new("log"), &bytes[..n]) {
             Ok(read) => {
                 prop_assert!(n >= first_line);
                 let complete = bytes[..n].split(|&b| b == b'\n').count() - 1;
@@ -523,6 +524,6 @@ proptest! {
             if i < bytes.len() { bytes[i] = b; }
         }
         let n = (cut * bytes.len() as f64) as usize;
-        let _ = parse_log(Path::new("log"), &bytes[..n]);
+        let _ = parse_log::<Registry>(Path::new("log"), &bytes[..n]);
     }
 }

@@ -14,11 +14,6 @@
 //! non-positive magnitudes) is a [`Problem`] naming the file (with
 //! `line:column` when known) or folder.
 
-pub mod claims;
-pub mod discrimination;
-pub mod fitts;
-pub mod magnitude;
-pub mod paired;
 pub mod report;
 pub mod stats;
 
@@ -28,9 +23,9 @@ use std::path::{Path, PathBuf};
 use polars::prelude::*;
 use serde_json::{Value, json};
 
-use crate::kinds::{AnalysisEntry, Kind};
 use crate::problem::Problem;
-use crate::results::COMMON_COLUMNS;
+use crate::protocol::kind::{Holds, Kinds, StudyKind};
+use crate::results::{COMMON_COLUMNS, ResultsDir};
 
 /// One output table: named columns of cells, written as CSV and Parquet.
 #[derive(Debug, Clone, PartialEq)]
@@ -141,8 +136,56 @@ impl Table {
     }
 }
 
-/// One kind's part of an analysis, from its entry
-/// (`crate::kinds::AnalysisEntry`).
+/// A kind's analysis: how its data files are told, what it reads, and
+/// the entry that turns the rows into a report section.
+#[derive(Debug, Clone, Copy)]
+pub struct AnalysisEntry<K: Kinds> {
+    /// A column only this kind's data CSVs have.
+    pub marker: &'static str,
+    /// The kind's columns the analysis does not need (they may be
+    /// missing; every other column must be present).
+    pub unread: &'static [&'static str],
+    /// Of those, the ones it reads when every data file of the kind has
+    /// them (columns added after older files were written).
+    pub optional: &'static [&'static str],
+    /// It also reads the rows that did not complete, to count them
+    /// (`Rows::aborted`).
+    pub counts_aborted: bool,
+    /// The analysis of the completed, non-practice rows of this kind in
+    /// `folder`, given the designs of the folder's sessions (every kind's,
+    /// in log order) for what the data CSVs do not hold, such as the
+    /// protocol's display order.
+    pub run: RunAnalysis<K>,
+}
+
+/// A kind's analysis of its rows in a folder, given the designs of the
+/// folder's sessions ([`AnalysisEntry::run`]).
+pub type RunAnalysis<K> =
+    fn(rows: &Rows, folder: &Path, designs: &[<K as Kinds>::Design]) -> Result<Section, Problem>;
+
+/// A kind's analysis, implemented in its folder beside its
+/// [`StudyKind`].
+pub trait KindAnalysis: StudyKind {
+    /// The kind's analysis in a set of kinds that holds it; `None`: the
+    /// kind has none.
+    fn analysis<K: Holds<Self>>() -> Option<AnalysisEntry<K>>;
+}
+
+/// A set of kinds with their analyses: the registry, which hands itself to
+/// [`analyze`].
+pub trait AnalysedKinds: Kinds {
+    /// Each kind's name and analysis, in registry order.
+    fn analyses() -> Vec<(&'static str, Option<AnalysisEntry<Self>>)>;
+}
+
+/// The designs of the kind `S` among `designs`, in order.
+pub fn designs_of<S: StudyKind, K: Holds<S>>(
+    designs: &[K::Design],
+) -> impl Iterator<Item = &S::Design> {
+    designs.iter().filter_map(|d| K::design_of(d))
+}
+
+/// One kind's part of an analysis, from its [`AnalysisEntry`].
 #[derive(Debug, Clone)]
 pub struct Section {
     /// The kind's object in `summary.json`.
@@ -366,15 +409,25 @@ fn split_csv(line: &str) -> Vec<String> {
 }
 
 /// Columns the analysis of a kind reads.
-fn needed(kind: Kind, entry: &AnalysisEntry) -> Vec<&'static str> {
+fn needed<K: Kinds>(kind: &str, entry: &AnalysisEntry<K>) -> Vec<&'static str> {
     let mut c: Vec<&str> = vec!["participant", "trial", "status", "practice"];
-    c.extend(kind.columns().iter().filter(|k| !entry.unread.contains(k)));
+    c.extend(
+        K::columns(kind)
+            .unwrap_or_default()
+            .iter()
+            .filter(|k| !entry.unread.contains(k)),
+    );
     c
 }
 
-/// A kind's data files: its entry, the files, and the optional columns all
-/// of them have.
-type Group = (Kind, AnalysisEntry, Vec<PathBuf>, Vec<&'static str>);
+/// A kind's data files: its name and entry, the files, and the optional
+/// columns all of them have.
+type Group<K> = (
+    &'static str,
+    AnalysisEntry<K>,
+    Vec<PathBuf>,
+    Vec<&'static str>,
+);
 
 /// Reads every data CSV of the folder, grouped by kind: completed,
 /// non-practice rows only. Unchecked against the logs (see [`analyze`]).
@@ -382,28 +435,31 @@ type Group = (Kind, AnalysisEntry, Vec<PathBuf>, Vec<&'static str>);
 /// # Errors
 /// No data files, a file whose kind cannot be told, missing columns, or a
 /// CSV polars cannot read.
-pub fn load(dir: &Path) -> Result<BTreeMap<&'static str, Rows>, Problem> {
-    load_files(dir, &crate::results::data_files(dir))
+pub fn load<K: AnalysedKinds>(dir: &Path) -> Result<BTreeMap<&'static str, Rows>, Problem> {
+    load_files::<K>(dir, &crate::results::data_files(dir))
 }
 
 /// [`load`] of the data CSVs `files` of the folder `dir`.
 ///
 /// # Errors
 /// As [`load`].
-fn load_files(dir: &Path, files: &[PathBuf]) -> Result<BTreeMap<&'static str, Rows>, Problem> {
+fn load_files<K: AnalysedKinds>(
+    dir: &Path,
+    files: &[PathBuf],
+) -> Result<BTreeMap<&'static str, Rows>, Problem> {
     if files.is_empty() {
         return Err(Problem::new(
             dir.display().to_string(),
             "no data files (expected data/*_data.csv, as written by frictionlab run or simulate)",
         ));
     }
-    let analysed: Vec<(Kind, AnalysisEntry)> = Kind::ALL
-        .iter()
-        .filter_map(|&k| k.analysis().map(|a| (k, a)))
+    let analysed: Vec<(&'static str, AnalysisEntry<K>)> = K::analyses()
+        .into_iter()
+        .filter_map(|(k, a)| a.map(|a| (k, a)))
         .collect();
     // Per kind: its entry, its files, and the optional columns every one of
     // them has (read; else left out for all).
-    let mut by_kind: BTreeMap<&'static str, Group> = BTreeMap::new();
+    let mut by_kind: BTreeMap<&'static str, Group<K>> = BTreeMap::new();
     for file in files {
         let name = file.display().to_string();
         let text = std::fs::read_to_string(file)
@@ -423,7 +479,7 @@ fn load_files(dir: &Path, files: &[PathBuf]) -> Result<BTreeMap<&'static str, Ro
             .and_then(|i| lines.next()?.split(',').nth(i));
         let found = match named {
             Some(k) => {
-                let Some(found) = analysed.iter().find(|(kind, _)| kind.as_str() == k) else {
+                let Some(found) = analysed.iter().find(|(kind, _)| *kind == k) else {
                     return Err(Problem::new(
                         format!("{name}: 2:1"),
                         format!("no analysis for the kind of session '{k}'"),
@@ -433,7 +489,7 @@ fn load_files(dir: &Path, files: &[PathBuf]) -> Result<BTreeMap<&'static str, Ro
             }
             None => analysed.iter().find(|(_, a)| has(a.marker)),
         };
-        let Some(&(kind, entry)) = found else {
+        let Some(&(kind, ref entry)) = found else {
             let markers: Vec<&str> = analysed.iter().map(|(_, a)| a.marker).collect();
             return Err(Problem::new(
                 format!("{name}: 1:1"),
@@ -443,7 +499,7 @@ fn load_files(dir: &Path, files: &[PathBuf]) -> Result<BTreeMap<&'static str, Ro
                 ),
             ));
         };
-        for c in COMMON_COLUMNS.iter().copied().chain(needed(kind, &entry)) {
+        for c in COMMON_COLUMNS.iter().copied().chain(needed(kind, entry)) {
             if !has(c) {
                 return Err(Problem::new(
                     format!("{name}: 1:1"),
@@ -452,8 +508,8 @@ fn load_files(dir: &Path, files: &[PathBuf]) -> Result<BTreeMap<&'static str, Ro
             }
         }
         let group = by_kind
-            .entry(kind.as_str())
-            .or_insert_with(|| (kind, entry, Vec::new(), entry.optional.to_vec()));
+            .entry(kind)
+            .or_insert_with(|| (kind, *entry, Vec::new(), entry.optional.to_vec()));
         group.2.push(file.clone());
         group.3.retain(|c| has(c));
     }
@@ -528,8 +584,8 @@ pub enum Check {
 ///
 /// # Errors
 /// Input that cannot be analysed.
-pub fn analyze(dir: &Path) -> Result<Analysis, Problem> {
-    analyze_with(dir, Check::AgainstLogs)
+pub fn analyze<K: AnalysedKinds>(dir: &Path) -> Result<Analysis, Problem> {
+    analyze_with::<K>(dir, Check::AgainstLogs)
 }
 
 /// [`analyze`], the data CSVs checked as `check` says.
@@ -537,12 +593,12 @@ pub fn analyze(dir: &Path) -> Result<Analysis, Problem> {
 /// # Errors
 /// Input that cannot be analysed; with [`Check::AgainstLogs`], a CSV
 /// unlike its log, or a damaged log.
-pub fn analyze_with(dir: &Path, check: Check) -> Result<Analysis, Problem> {
+pub fn analyze_with<K: AnalysedKinds>(dir: &Path, check: Check) -> Result<Analysis, Problem> {
     let mut notes: Vec<String> = Vec::new();
     let data = match check {
         Check::AgainstLogs => {
             let jobs = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
-            let verified = crate::results::verify(dir, jobs)?;
+            let verified = crate::results::verify::<K>(dir, jobs)?;
             notes.extend(verified.notices);
             if verified.files.is_empty() && !crate::results::data_files(dir).is_empty() {
                 return Err(Problem::new(
@@ -553,24 +609,29 @@ pub fn analyze_with(dir: &Path, check: Check) -> Result<Analysis, Problem> {
                     ),
                 ));
             }
-            load_files(dir, &verified.files)?
+            load_files::<K>(dir, &verified.files)?
         }
         Check::CsvOnly => {
             notes.push(
                 "the data CSVs were analysed alone, not held against their session logs (the primary record): edits or damage to them would go unnoticed".to_owned(),
             );
-            load(dir)?
+            load::<K>(dir)?
         }
     };
     let mut summary = serde_json::Map::new();
     let mut tables = Vec::new();
     let mut sections = Vec::new();
-    for kind in Kind::ALL {
-        let (Some(entry), Some(rows)) = (kind.analysis(), data.get(kind.as_str())) else {
+    let designs: Vec<K::Design> = ResultsDir::new(dir)
+        .headers::<K>()
+        .into_iter()
+        .map(|h| h.protocol.design)
+        .collect();
+    for (kind, entry) in K::analyses() {
+        let (Some(entry), Some(rows)) = (entry, data.get(kind)) else {
             continue;
         };
-        let section = (entry.run)(rows, dir)?;
-        summary.insert(kind.as_str().into(), section.summary);
+        let section = (entry.run)(rows, dir, &designs)?;
+        summary.insert(kind.into(), section.summary);
         notes.extend(section.notes);
         sections.push(section.html);
         tables.extend(section.tables);

@@ -1,7 +1,7 @@
-//! The human report: one self-contained HTML page with tables and inline SVG
-//! figures (plotters): seed 001's perceived friction against mu_s and mu_k,
-//! seed 000's choice counts, seed 002's quadrant scatter and MT-against-ID
-//! lines.
+//! The human report's building blocks: one self-contained HTML page
+//! ([`page`]) of the kinds' sections, tables ([`table_html`]) and inline
+//! SVG charts (plotters). Each kind writes its own section from these, in
+//! its folder (`src/kinds/<kind>/report.rs`).
 
 use std::fmt::Write as _;
 
@@ -9,19 +9,20 @@ use plotters::prelude::*;
 use serde_json::Value;
 
 use super::Table;
-use super::discrimination::Discrimination;
-use super::fitts::Fitts;
-use super::magnitude::Magnitude;
-use super::paired::Paired;
 
-pub(crate) fn esc(s: &str) -> String {
+/// `s` escaped for HTML text and attributes.
+#[must_use]
+pub fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
         .replace('"', "&quot;")
 }
 
-pub(crate) fn fmt(x: f64) -> String {
+/// A number for the report: four decimals, or four significant digits
+/// with an exponent when very small or large.
+#[must_use]
+pub fn fmt(x: f64) -> String {
     if x == 0.0 || (1e-3..1e6).contains(&x.abs()) {
         format!("{x:.4}")
     } else {
@@ -53,7 +54,9 @@ pub fn table_html(t: &Table) -> String {
     s
 }
 
-fn range(values: impl Iterator<Item = f64>, include_zero: bool) -> std::ops::Range<f64> {
+/// The axis range of `values` (finite ones), padded by 8%, with 0 in it
+/// when `include_zero`.
+pub fn range(values: impl Iterator<Item = f64>, include_zero: bool) -> std::ops::Range<f64> {
     let (mut lo, mut hi) = values
         .filter(|v| v.is_finite())
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
@@ -75,7 +78,8 @@ fn range(values: impl Iterator<Item = f64>, include_zero: bool) -> std::ops::Ran
 
 /// A line chart: one line (with points) per series, and straight lines
 /// `fits` (x0, y0, x1, y1).
-pub(crate) fn line_chart(
+#[must_use]
+pub fn line_chart(
     title: &str,
     x_label: &str,
     y_label: &str,
@@ -87,7 +91,8 @@ pub(crate) fn line_chart(
 }
 
 /// [`line_chart`] over the y range `ys`.
-pub(crate) fn line_chart_in(
+#[must_use]
+pub fn line_chart_in(
     title: &str,
     x_label: &str,
     y_label: &str,
@@ -141,10 +146,13 @@ pub(crate) fn line_chart_in(
     svg
 }
 
-/// A scatter of (time change, error change) per series, with axes at zero;
-/// series `i` is drawn in palette colour `first_colour + i`.
-fn quadrant_chart(
+/// A scatter of points per series with the axes through zero (changes
+/// against a baseline, by quadrant), axis labels `labels` (x, y); series
+/// `i` is drawn in palette colour `first_colour + i`.
+#[must_use]
+pub fn quadrant_chart(
     title: &str,
+    labels: (&str, &str),
     series: &[(String, Vec<(f64, f64)>)],
     first_colour: usize,
 ) -> String {
@@ -165,8 +173,8 @@ fn quadrant_chart(
         };
         let _ = chart
             .configure_mesh()
-            .x_desc("change in completion time vs baseline (s)")
-            .y_desc("change in mean error magnitude vs baseline (m)")
+            .x_desc(labels.0)
+            .y_desc(labels.1)
             .light_line_style(WHITE)
             .draw();
         let _ = chart.draw_series(LineSeries::new(
@@ -197,7 +205,8 @@ fn quadrant_chart(
 }
 
 /// A bar chart of counts.
-fn bar_chart(title: &str, items: &[(String, u64)]) -> String {
+#[must_use]
+pub fn bar_chart(title: &str, items: &[(String, u64)]) -> String {
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (460, 300)).into_drawing_area();
@@ -241,159 +250,16 @@ fn bar_chart(title: &str, items: &[(String, u64)]) -> String {
     svg
 }
 
-fn svg_fallback(title: &str) -> String {
+/// What stands in for a figure that could not be drawn.
+#[must_use]
+pub fn svg_fallback(title: &str) -> String {
     format!("<p>(figure '{}' could not be drawn)</p>", esc(title))
-}
-
-/// The magnitude-estimation section.
-#[must_use]
-pub fn magnitude_section(m: &Magnitude) -> String {
-    let mut s = String::from("<h2>Magnitude estimation (seed 001)</h2>");
-    let ratio = m.summary["display_ratio"].as_f64();
-    let _ = write!(
-        s,
-        "<p>Displays: {}. Display ratio (geometric mean of the first display's pooled values over the second's): <b>{}</b> (seed: about 1/7).</p>",
-        esc(&m.displays.join(", ")),
-        ratio.map_or("n/a".into(), fmt)
-    );
-    let effect = &m.summary["display_effect"];
-    if let (Some(r), Some(p)) = (effect["ratio"].as_f64(), effect["p"].as_f64()) {
-        let _ = write!(
-            s,
-            "<p>Display effect across participants (paired t test of each participant's first-over-second display mean log answer): ratio {} (95% CI {} to {}), t = {}, p = {}, n = {}.</p>",
-            fmt(r),
-            effect["ci_low"].as_f64().map_or("n/a".into(), fmt),
-            effect["ci_high"].as_f64().map_or("n/a".into(), fmt),
-            effect["t"].as_f64().map_or("n/a".into(), fmt),
-            fmt(p),
-            effect["n"]
-        );
-    }
-    s.push_str("<div class=\"figs\">");
-    for d in &m.displays {
-        for norm in ["pooled", "per_display"] {
-            for against in ["mu_s", "mu_k"] {
-                let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
-                for g in m
-                    .means
-                    .iter()
-                    .filter(|g| &g.display == d && g.normalization == norm)
-                {
-                    let name = format!("delta_mu {}", g.delta_mu);
-                    let x = if against == "mu_s" { g.mu_s } else { g.mu_k };
-                    match series.iter_mut().find(|(n, _)| *n == name) {
-                        Some((_, pts)) => pts.push((x, g.value)),
-                        None => series.push((name, vec![(x, g.value)])),
-                    }
-                }
-                for (_, pts) in &mut series {
-                    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-                }
-                let title = format!("{d}, {norm}: perceived friction vs {against}");
-                s.push_str(&line_chart(&title, against, "geometric mean", &series, &[]));
-            }
-        }
-    }
-    s.push_str("</div>");
-    for t in [1, 2, 0] {
-        if let Some(t) = m.tables_ref().get(t) {
-            s.push_str(&table_html(t));
-        }
-    }
-    s
-}
-
-impl Magnitude {
-    /// The tables (geometric means, correlations, trends).
-    #[must_use]
-    pub fn tables_ref(&self) -> &[Table] {
-        &self.tables
-    }
-}
-
-/// The paired-comparison section.
-#[must_use]
-pub fn paired_section(p: &Paired) -> String {
-    let mut s = String::from("<h2>Paired comparison (seed 000)</h2>");
-    let _ = write!(
-        s,
-        "<p>Two-sided exact binomial test on decisive answers: p = <b>{}</b>. Presentation order: first chosen {}, second chosen {} (p = {}).</p>",
-        p.summary["binomial_p"].as_f64().map_or("n/a".into(), fmt),
-        p.summary["order"]["first_chosen"],
-        p.summary["order"]["second_chosen"],
-        p.summary["order"]["binomial_p"]
-            .as_f64()
-            .map_or("n/a".into(), fmt),
-    );
-    s.push_str(&bar_chart(
-        "Which rendering is nearer to the real surface",
-        &p.counts,
-    ));
-    for t in &p.tables {
-        s.push_str(&table_html(t));
-    }
-    s
-}
-
-/// The Fitts section.
-#[must_use]
-pub fn fitts_section(f: &Fitts) -> String {
-    let mut s = String::from("<h2>Fitts targeting (seed 002)</h2><div class=\"figs\">");
-    let pooled: Vec<(String, Vec<(f64, f64)>)> = f
-        .quadrants
-        .iter()
-        .filter(|q| q.id_bits.is_none())
-        .map(|q| (q.condition.clone(), q.points.clone()))
-        .collect();
-    if !pooled.is_empty() {
-        // Colours match the MT chart, where baseline is the first series.
-        s.push_str(&quadrant_chart(
-            "Each participant against own baseline (all IDs)",
-            &pooled,
-            1,
-        ));
-    }
-    let series: Vec<(String, Vec<(f64, f64)>)> = f
-        .mt_by_id
-        .iter()
-        .map(|(c, pts, _)| (c.clone(), pts.clone()))
-        .collect();
-    let fits: Vec<(f64, f64, f64, f64)> = f
-        .mt_by_id
-        .iter()
-        .map(|(_, pts, fit)| {
-            let (x0, x1) = pts
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
-                    (a.min(p.0), b.max(p.0))
-                });
-            fit.map_or((0.0, 0.0, 0.0, 0.0), |f| {
-                (
-                    x0,
-                    f.intercept + f.slope * x0,
-                    x1,
-                    f.intercept + f.slope * x1,
-                )
-            })
-        })
-        .collect();
-    s.push_str(&line_chart(
-        "Movement time against ID (means, OLS lines)",
-        "ID (bits)",
-        "MT per movement (s)",
-        &series,
-        &fits,
-    ));
-    s.push_str("</div>");
-    for t in f.tables.iter().skip(1).chain(f.tables.first()) {
-        s.push_str(&table_html(t));
-    }
-    s
 }
 
 /// Points (`scatter`, markers) and lines (`curves`) on shared axes; the
 /// `i`th of each in palette colour `i`.
-fn scatter_curves(
+#[must_use]
+pub fn scatter_curves(
     title: &str,
     labels: (&str, &str),
     scatter: &[(String, Vec<(f64, f64)>)],
@@ -451,119 +317,6 @@ fn scatter_curves(
         let _ = root.present();
     }
     svg
-}
-
-/// A track's fitted function over its differences, 61 points.
-fn fitted_curve(d: &Discrimination, t: &super::discrimination::TrackFit) -> Vec<(f64, f64)> {
-    let (lo, hi) = t.blocks.iter().fold((f64::INFINITY, 0.0_f64), |(a, b), k| {
-        (a.min(k.x), b.max(k.x))
-    });
-    t.fit.map_or_else(Vec::new, |f| {
-        let psi = frictionlab_psychophysics::psychometric::Psychometric {
-            shape: d.design.fit.shape,
-            params: f.params,
-            guess: frictionlab_psychophysics::psychometric::GUESS_2IFC,
-        };
-        (0..=60)
-            .map(|k| {
-                let x = lo + (hi - lo) * f64::from(k) / 60.0;
-                (x, psi.p_correct(x))
-            })
-            .collect()
-    })
-}
-
-/// Tracks shown in the track and fit figures (the first participants').
-const TRACKS_SHOWN: usize = 6;
-
-/// The discrimination section: each track's differences, the fitted
-/// functions over the binned answers, and the Weber fraction against the
-/// reference level.
-#[must_use]
-pub fn discrimination_section(d: &Discrimination) -> String {
-    let mut s = format!(
-        "<h2>Discrimination of {}</h2><p>Threshold at {}% correct (two intervals, guess rate 0.5, lapse rate fitted within [0, {}]), {} fits, 95% parametric-bootstrap intervals ({} samples).</p><div class=\"figs\">",
-        esc(&d.design.parameter),
-        fmt(d.design.criterion * 100.0),
-        fmt(d.design.fit.max_lapse),
-        d.tracks.len(),
-        d.design.fit.bootstrap,
-    );
-    let shown: Vec<_> = d.tracks.iter().take(TRACKS_SHOWN).collect();
-    let name =
-        |t: &super::discrimination::TrackFit| format!("{} @ {}", t.participant, fmt(t.level));
-    #[expect(clippy::cast_precision_loss, reason = "trial numbers")]
-    let tracks: Vec<(String, Vec<(f64, f64)>)> = shown
-        .iter()
-        .map(|t| {
-            (
-                name(t),
-                t.answers
-                    .iter()
-                    .enumerate()
-                    .map(|(i, a)| ((i + 1) as f64, a.0))
-                    .collect(),
-            )
-        })
-        .collect();
-    s.push_str(&line_chart(
-        "Each track's difference, trial by trial",
-        "trial of the track",
-        "difference",
-        &tracks,
-        &[],
-    ));
-    let binned: Vec<(String, Vec<(f64, f64)>)> = shown
-        .iter()
-        .map(|t| {
-            (
-                String::new(),
-                t.blocks
-                    .iter()
-                    .map(|b| (b.x, f64::from(b.correct) / f64::from(b.n.max(1))))
-                    .collect(),
-            )
-        })
-        .collect();
-    let curves: Vec<(String, Vec<(f64, f64)>)> = shown
-        .iter()
-        .map(|t| (name(t), fitted_curve(d, t)))
-        .collect();
-    s.push_str(&scatter_curves(
-        "Fitted functions over the answers at each difference",
-        ("difference", "proportion correct"),
-        &binned,
-        &curves,
-    ));
-    let participants: Vec<(String, Vec<(f64, f64)>)> = vec![(
-        "each participant".into(),
-        d.tracks
-            .iter()
-            .filter_map(|t| t.weber.map(|w| (t.level, w)))
-            .collect(),
-    )];
-    let means: Vec<(String, Vec<(f64, f64)>)> = vec![(
-        "mean".into(),
-        d.summary["levels"]
-            .as_array()
-            .map(|ls| {
-                ls.iter()
-                    .filter_map(|l| Some((l["level"].as_f64()?, l["weber_mean"].as_f64()?)))
-                    .collect()
-            })
-            .unwrap_or_default(),
-    )];
-    s.push_str(&scatter_curves(
-        "Weber fraction against the reference level",
-        ("reference level", "Weber fraction"),
-        &participants,
-        &means,
-    ));
-    s.push_str("</div>");
-    for t in &d.tables {
-        s.push_str(&table_html(t));
-    }
-    s
 }
 
 /// The whole page.

@@ -10,7 +10,8 @@ use super::{
 };
 use crate::friction::Validate;
 use crate::friction::{ForceLimit, ModelParams};
-use crate::protocol::{Protocol, load};
+use crate::kinds::{Protocol, Registry};
+use crate::protocol::load;
 use crate::scenario::{self, ScenarioError, ScenarioParams};
 use crate::session::{self, SessionError};
 use crate::{render, results, settings};
@@ -28,7 +29,7 @@ pub(super) fn validate_command(paths: &[PathBuf]) -> Result<(), Failure> {
                 emit(&format!(
                     "ok: {}: {} '{}', {}\n",
                     path.display(),
-                    p.design.kind().as_str(),
+                    p.kind(),
                     p.id,
                     p.trials_per_session()
                 ))?;
@@ -45,14 +46,14 @@ pub(super) fn validate_command(paths: &[PathBuf]) -> Result<(), Failure> {
 
 pub(super) fn claims_command(dir: &Path, fitts_protocol: &Path) -> Result<(), Failure> {
     let (protocol, _) = load_protocol(fitts_protocol)?;
-    let Some(ids) = crate::analysis::claims::narrowest_ids(&protocol) else {
+    let Some(ids) = crate::claims::narrowest_ids(&protocol) else {
         return Err(vec![UserError::new(
             format!("{}: $.design.kind", fitts_protocol.display()),
             "not a fitts protocol",
         )]
         .into());
     };
-    let table = crate::analysis::claims::claims(dir, &ids).map_err(|e| Failure::from(vec![e]))?;
+    let table = crate::claims::claims(dir, &ids).map_err(|e| Failure::from(vec![e]))?;
     let path = dir.join("claims.md");
     crate::render::write_atomically(&path, table.as_bytes()).map_err(|e| {
         Failure::from(vec![UserError::new(
@@ -74,7 +75,7 @@ pub(super) fn analyze_command(
     } else {
         Check::AgainstLogs
     };
-    let analysis = crate::analysis::analyze_with(dir, check).map_err(|mut e| {
+    let analysis = crate::analysis::analyze_with::<Registry>(dir, check).map_err(|mut e| {
         if e.message.starts_with(results::NO_LOG) {
             e.message
                 .push_str("; to analyse CSVs alone, unchecked, give --csv-only");
@@ -566,7 +567,9 @@ pub(super) fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
         }
     }
     let dir = results::ResultsDir::new(&args.out);
-    let planned = crate::kinds::source(&protocol, 0, 0).planned().unwrap_or(0) as u64;
+    let planned = <Registry as crate::protocol::kind::Kinds>::source(&protocol, 0, 0)
+        .planned()
+        .unwrap_or(0) as u64;
     let bar = indicatif::ProgressBar::new(planned * u64::from(args.participants));
     bar.set_style(
         indicatif::ProgressStyle::with_template(
@@ -709,7 +712,7 @@ pub(super) fn power_command(args: &PowerArgs) -> Result<(), Failure> {
     }
     let header = PlanHeader {
         protocol: protocol.id.clone(),
-        kind: protocol.design.kind().as_str().to_owned(),
+        kind: protocol.kind().to_owned(),
         protocol_sha256: crate::results::sha256_hex(&bytes),
         participants: args.participants.clone(),
         studies: args.studies,

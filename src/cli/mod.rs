@@ -402,9 +402,9 @@ pub fn main() -> ExitCode {
         } => emulator_command(&path, on_board, link_delay_ms),
         Command::FirmwareQemu { elf, link } => firmware_qemu_command(&elf, link.as_deref()),
         Command::Schema { which } => emit(&if which == "log" {
-            crate::results::log_json_schema()
+            crate::results::log_json_schema::<crate::kinds::Registry>()
         } else {
-            crate::protocol::json_schema()
+            crate::protocol::json_schema::<crate::kinds::Registry>()
         }),
         Command::Render(args) => render_command(&args),
         Command::Models => emit(&format!("{}\n", models_json())),

@@ -10,7 +10,8 @@ use eframe::egui::{self, RichText};
 
 use super::{Command, ERROR_RED, Launch};
 use crate::device::PortInfo;
-use crate::protocol::{Protocol, SHIPPED, load};
+use crate::kinds::{Protocol, Registry};
+use crate::protocol::{SHIPPED, load};
 use crate::results::{ResultsDir, check_participant, read_log};
 use crate::session::{DeviceChoice, LiveSession, SessionRequest};
 
@@ -257,7 +258,7 @@ impl SetupPanel {
                 Ok(sessions) => {
                     if let Some(last) = sessions.last() {
                         info.next = last.session + 1;
-                        match read_log(&last.log) {
+                        match read_log::<Registry>(&last.log) {
                             Ok(read) if !read.ended => {
                                 info.unfinished = Some((
                                     last.session,
@@ -346,7 +347,7 @@ impl SetupPanel {
                     "{}: {} ({}, {})",
                     l.label,
                     l.protocol.title,
-                    l.protocol.design.kind().as_str(),
+                    l.protocol.kind(),
                     l.trials
                 ));
             }

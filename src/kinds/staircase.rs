@@ -18,12 +18,13 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use super::paired::{Compare, Paired, PairedData, PairedTrial};
-use super::{LiveTrial, Next, StudyKind, TrialData};
-use super::magnitude::{Stimulus, stimulus_model};
+use crate::analysis::{AnalysisEntry, KindAnalysis};
 use crate::friction::ModelParams;
+use crate::kinds::magnitude::{Stimulus, stimulus_model};
+use crate::kinds::paired::{Compare, Paired, PairedData, PairedTrial};
 use crate::protocol::check::Checks;
 use crate::protocol::engine::{Action, Input, Status, TrialRecord, TrialSource};
+use crate::protocol::kind::{Holds, Kinds, LiveTrial, Next, StudyKind};
 use crate::protocol::load::Walk;
 use crate::protocol::plan::PlannedTrial;
 use crate::protocol::{Condition, Protocol};
@@ -129,12 +130,12 @@ impl StudyKind for Staircase {
         }
     }
 
-    fn source(
-        _protocol: &Protocol,
+    fn source<K: Holds<Self>>(
+        _protocol: &Protocol<K>,
         design: &StaircaseDesign,
         seed: u64,
         _participant_index: u32,
-    ) -> Arc<dyn TrialSource> {
+    ) -> Arc<dyn TrialSource<K>> {
         Arc::new(Source {
             design: design.clone(),
             seed,
@@ -145,9 +146,9 @@ impl StudyKind for Staircase {
         Paired::loop_rate_hz(&t.pair)
     }
 
-    fn start(t: &StaircaseTrial, now: f64, out: &mut VecDeque<Action>) -> Track {
+    fn start<K: Kinds>(t: &StaircaseTrial, now: f64, out: &mut VecDeque<Action<K>>) -> Track {
         Track {
-            compare: Paired::start(&t.pair, now, out),
+            compare: <Paired as StudyKind>::start(&t.pair, now, out),
             delta_mu_s: t.delta_mu_s,
         }
     }
@@ -166,11 +167,16 @@ impl LiveTrial for Track {
         self.compare.timeout()
     }
 
-    fn on_timeout(&mut self, now: f64, out: &mut VecDeque<Action>) -> Next {
+    fn on_timeout<K: Kinds>(&mut self, now: f64, out: &mut VecDeque<Action<K>>) -> Next {
         self.compare.on_timeout(now, out)
     }
 
-    fn on_input(&mut self, now: f64, input: Input, out: &mut VecDeque<Action>) -> Next {
+    fn on_input<K: Kinds>(
+        &mut self,
+        now: f64,
+        input: Input,
+        out: &mut VecDeque<Action<K>>,
+    ) -> Next {
         self.compare.on_input(now, input, out)
     }
 
@@ -193,14 +199,14 @@ struct Source {
 impl Source {
     /// Replays the logged answers: the current difference and the reversals
     /// so far.
-    fn track(&self, history: &[TrialRecord]) -> (f64, u32) {
+    fn track<K: Holds<Staircase>>(&self, history: &[TrialRecord<K>]) -> (f64, u32) {
         let d = &self.design;
         let (mut delta, mut reversals, mut last) = (d.start_delta, 0, None);
         for r in history
             .iter()
             .filter(|r| !r.requeued && r.status == Status::Completed)
         {
-            let TrialData::Staircase(data) = &r.data else {
+            let Some(data) = K::data_of(&r.data) else {
                 continue;
             };
             let down = data.answer.chosen.as_deref() == Some("comparison");
@@ -214,8 +220,8 @@ impl Source {
     }
 }
 
-impl TrialSource for Source {
-    fn trial(&self, index: usize, history: &[TrialRecord]) -> Option<PlannedTrial> {
+impl<K: Holds<Staircase>> TrialSource<K> for Source {
+    fn trial(&self, index: usize, history: &[TrialRecord<K>]) -> Option<PlannedTrial<K>> {
         let d = &self.design;
         let (delta, reversals) = self.track(history);
         let base = coefficients(&d.reference)?;
@@ -243,7 +249,7 @@ impl TrialSource for Source {
             practice: false,
             repetition: 0,
             seed,
-            spec: super::TrialSpec::Staircase(StaircaseTrial {
+            spec: K::wrap_trial(StaircaseTrial {
                 pair: PairedTrial {
                     first,
                     second,
@@ -263,6 +269,13 @@ impl TrialSource for Source {
     }
 }
 
+/// No analysis: the toy kind exists to show the seam.
+impl KindAnalysis for Staircase {
+    fn analysis<K: Holds<Self>>() -> Option<AnalysisEntry<K>> {
+        None
+    }
+}
+
 #[cfg(test)]
 #[allow(
     clippy::unwrap_used,
@@ -277,9 +290,8 @@ mod tests {
     use super::{StaircaseData, StaircaseTrial};
     use crate::device::DeviceSample;
     use crate::hand::HandDrive;
-    use crate::kinds::{TrialData, TrialSpec};
-    use crate::protocol::engine::{Action, Answer, Choice, Input, Question, Screen};
-    use crate::protocol::plan::PlannedTrial;
+    use crate::kinds::{Action, PlannedTrial, TrialData, TrialSpec};
+    use crate::protocol::engine::{Answer, Choice, Input, Question, Screen};
     use crate::results::{ResultsDir, read_log};
     use crate::session::{
         DeviceChoice, Reaction, Responder, SessionRequest, plan as plan_session, run_planned,
@@ -348,7 +360,7 @@ mod tests {
 
     /// Runs (or resumes) the staircase session in `out`, paced.
     fn run(out: &Path, resume: bool, pace: Option<f64>) {
-        let protocol = crate::protocol::load::parse(PROTOCOL).unwrap();
+        let protocol = crate::protocol::load::parse::<crate::kinds::Registry>(PROTOCOL).unwrap();
         let dir = ResultsDir::new(out);
         let req = SessionRequest {
             protocol: &protocol,
@@ -388,7 +400,7 @@ mod tests {
 
     /// (difference, comparison chosen) per logged trial.
     fn track(out: &Path) -> Vec<(f64, bool)> {
-        read_log(&log_path(out))
+        read_log::<crate::kinds::Registry>(&log_path(out))
             .unwrap()
             .trials
             .iter()
@@ -411,7 +423,7 @@ mod tests {
         let picks: Vec<bool> = track.iter().map(|t| t.1).collect();
         assert_eq!(deltas, [0.4, 0.3, 0.2, 0.1, 0.2, 0.1, 0.2]);
         assert_eq!(picks, [true, true, true, false, true, false, true]);
-        let log = read_log(&log_path(dir.path())).unwrap();
+        let log = read_log::<crate::kinds::Registry>(&log_path(dir.path())).unwrap();
         assert!(log.ended);
         assert_eq!(log.header.planned_trials, 0, "unknown in advance");
         let csv = csv(dir.path());
@@ -449,7 +461,9 @@ mod tests {
         // after some trials are logged, then resumed until it ends.
         let mut first = child(false).spawn().unwrap();
         let start = std::time::Instant::now();
-        while read_log(&log_path(dir.path())).map_or(0, |l| l.trials.len()) < 3
+        while read_log::<crate::kinds::Registry>(&log_path(dir.path()))
+            .map_or(0, |l| l.trials.len())
+            < 3
             && start.elapsed().as_secs() < 60
         {
             std::thread::sleep(Duration::from_millis(5));
@@ -457,7 +471,7 @@ mod tests {
         std::thread::sleep(Duration::from_millis(120));
         first.kill().unwrap(); // SIGKILL
         first.wait().unwrap();
-        let logged = read_log(&log_path(dir.path())).unwrap();
+        let logged = read_log::<crate::kinds::Registry>(&log_path(dir.path())).unwrap();
         assert!(!logged.ended && (3..7).contains(&logged.trials.len()));
         let o = child(true).output().unwrap();
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stdout));

@@ -37,12 +37,22 @@ use rand_distr::{Distribution, Normal};
 use crate::device::DeviceSample;
 use crate::hand::{Hand, HandDrive};
 use crate::protocol::engine::{Action, Answer, Choice, Input, Question, Screen};
+use crate::protocol::kind::Kinds;
 use crate::protocol::plan::PlannedTrial;
-use crate::session::Reaction;
 pub use movement::MAX_CORRECTIONS;
 use movement::{Step, Tap};
 use percept::{Acuity, Desk, Features, Felt, SLIDE_REST_S, SLIDE_S};
 pub use population::{Population, Range};
+
+/// What a responder does in response to an action or a sample.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Reaction {
+    /// Inputs for the engine, in order.
+    pub inputs: Vec<Input>,
+    /// Put the device (and hand) at rest here first, m. Only the simulated
+    /// device can do this; on a real one the hand moves there itself.
+    pub reset_to: Option<f64>,
+}
 
 /// A participant's traits, drawn from its [`Population`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -300,11 +310,11 @@ impl SimParticipant {
     }
 
     /// Reacts to an engine action; `trial` is the engine's current trial.
-    pub fn on_action(
+    pub fn on_action<K: Kinds>(
         &mut self,
         now: f64,
-        action: &Action,
-        trial: Option<&PlannedTrial>,
+        action: &Action<K>,
+        trial: Option<&PlannedTrial<K>>,
     ) -> Reaction {
         let idle = Reaction {
             inputs: vec![Input::Continue],
@@ -379,17 +389,17 @@ impl SimParticipant {
     }
 
     /// Reseeds the trial's randomness from (trial seed, participant).
-    fn start_trial(&mut self, trial: Option<&PlannedTrial>) {
+    fn start_trial<K: Kinds>(&mut self, trial: Option<&PlannedTrial<K>>) {
         let seed = trial.map_or(0, |t| t.seed);
         self.rng = ChaCha8Rng::seed_from_u64(seed ^ id_hash(&self.id));
         self.segment = self.segment.wrapping_add(1);
     }
 
     /// A Fitts screen: `w_eff` is the width that counts for a hit.
-    fn fitts_screen(
+    fn fitts_screen<K: Kinds>(
         &mut self,
         now: f64,
-        trial: Option<&PlannedTrial>,
+        trial: Option<&PlannedTrial<K>>,
         lit_other: [f64; 2],
         w_eff: f64,
     ) -> Reaction {
@@ -604,18 +614,11 @@ impl SimParticipant {
     /// With a set preference, which of the trial's two presented
     /// conditions (0 or 1) it names; `None` without one, or when the pair
     /// lacks it.
-    fn preferred_stimulus(&self, trial: Option<&PlannedTrial>) -> Option<usize> {
+    fn preferred_stimulus<K: Kinds>(&self, trial: Option<&PlannedTrial<K>>) -> Option<usize> {
         let pref = self.preference.as_ref()?;
-        let Some(PlannedTrial {
-            spec: crate::kinds::TrialSpec::PairedComparison(t),
-            ..
-        }) = trial
-        else {
-            return None;
-        };
-        [&t.first.id, &t.second.id]
+        K::preferable_stimuli(&trial?.spec)
             .iter()
-            .position(|id| **id == pref.condition)
+            .position(|id| *id == pref.condition)
     }
 
     /// A forced choice: the stimulus perceived as more friction (the first

@@ -4,6 +4,9 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use crate::protocol::Protocol;
+use crate::protocol::kind::Kinds;
+
 /// A closed range `[low, high]` a trait is drawn from, uniformly.
 pub type Range = [f64; 2];
 
@@ -177,27 +180,23 @@ impl Population {
     /// Its problems with `protocol`, as (field, what): a paired preference
     /// must name one of a paired comparison's conditions.
     #[must_use]
-    pub fn protocol_problems(&self, protocol: &crate::protocol::Protocol) -> Vec<(String, String)> {
+    pub fn protocol_problems<K: Kinds>(&self, protocol: &Protocol<K>) -> Vec<(String, String)> {
         let Some(pref) = &self.paired_preference else {
             return Vec::new();
         };
-        let what = match &protocol.design {
-            crate::kinds::Design::PairedComparison(d) => {
-                if d.conditions.iter().any(|c| c.id == pref.condition) {
+        let what = match K::preferable(&protocol.design) {
+            Some(ids) => {
+                if ids.contains(&pref.condition.as_str()) {
                     return Vec::new();
                 }
                 format!(
                     "'{}' is not a condition of protocol '{}' ({})",
                     pref.condition,
                     protocol.id,
-                    d.conditions
-                        .iter()
-                        .map(|c| c.id.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", ")
+                    ids.join(", ")
                 )
             }
-            _ => format!(
+            None => format!(
                 "a paired preference, but protocol '{}' is not a paired comparison",
                 protocol.id
             ),

@@ -51,9 +51,9 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
+use crate::kinds::Protocol;
 use crate::participant::Population;
 use crate::problem::Problem;
-use crate::protocol::Protocol;
 use crate::results::ResultsDir;
 use crate::session::{SessionError, Simulation, participant_seed, simulate_participants};
 
@@ -399,7 +399,8 @@ fn run_study(plan: &Plan<'_>, index: u64, work: &Path) -> Result<StudyRecord, Po
         },
         &|_| {},
     )?;
-    let analysis = crate::analysis::analyze(&dir).map_err(|e| PowerError::Input(vec![e]))?;
+    let analysis = crate::analysis::analyze::<crate::kinds::Registry>(&dir)
+        .map_err(|e| PowerError::Input(vec![e]))?;
     remove_dir(&dir)?;
     let Outcomes { p, ci_width } = outcomes(&analysis.summary);
     Ok(StudyRecord {

@@ -1,11 +1,12 @@
 //! Stage 1's second half: value checks on a protocol whose structure
 //! [`super::load`] has read (ranges, unique and valid ids, cross-references,
 //! zero trials), each problem named by its JSON path. The design's checks
-//! are its kind's (`crate::kinds::StudyKind::check`), made with [`Checks`].
+//! are its kind's ([`super::kind::StudyKind::check`]), made with [`Checks`].
 
 use std::collections::HashSet;
 
 use super::Protocol;
+use super::kind::Kinds;
 use super::load::id_problem;
 use crate::problem::Problem;
 
@@ -65,7 +66,7 @@ impl Checks<'_> {
 }
 
 /// Value checks on a structurally valid protocol.
-pub(super) fn check(p: &Protocol, errors: &mut Vec<Problem>) {
+pub(super) fn check<K: Kinds>(p: &Protocol<K>, errors: &mut Vec<Problem>) {
     let mut c = Checks { errors, prefix: "" };
     if let Some(why) = id_problem(&p.id) {
         c.err("id", why);
@@ -74,8 +75,11 @@ pub(super) fn check(p: &Protocol, errors: &mut Vec<Problem>) {
         c.err("repetitions", "must be at least 1");
     }
     c.non_negative("break_s", p.break_s);
-    p.design.check(&mut Checks {
-        errors: c.errors,
-        prefix: "design.",
-    });
+    K::check_design(
+        &p.design,
+        &mut Checks {
+            errors: c.errors,
+            prefix: "design.",
+        },
+    );
 }

@@ -11,7 +11,8 @@
 use serde::de::DeserializeOwned;
 use serde_json::{Map, Value};
 
-use super::{BlockOrder, Condition, Design, Kind, Protocol, Randomization};
+use super::kind::Kinds;
+use super::{BlockOrder, Condition, Protocol, Randomization};
 use crate::friction::Validate;
 use crate::friction::{
     DahlParams, GodObjectParams, KarnoppParams, ModelParams, NakanoParams, ViscousParams,
@@ -22,7 +23,7 @@ use crate::problem::Problem;
 ///
 /// # Errors
 /// Every problem found, each with its place.
-pub fn parse(text: &str) -> Result<Protocol, Vec<Problem>> {
+pub fn parse<K: Kinds>(text: &str) -> Result<Protocol<K>, Vec<Problem>> {
     let value: Value = serde_json::from_str(text).map_err(|e| {
         vec![Problem::new(
             format!("{}:{}", e.line(), e.column()),
@@ -30,7 +31,7 @@ pub fn parse(text: &str) -> Result<Protocol, Vec<Problem>> {
         )]
     })?;
     let mut w = Walk::default();
-    let protocol = w.protocol(&value);
+    let protocol = w.protocol::<K>(&value);
     match protocol {
         Some(p) if w.errors.is_empty() => {
             super::check::check(&p, &mut w.errors);
@@ -50,7 +51,7 @@ pub fn parse(text: &str) -> Result<Protocol, Vec<Problem>> {
 ///
 /// # Errors
 /// The file cannot be read or is not UTF-8, or every problem [`parse`] finds.
-pub fn read(path: &std::path::Path) -> Result<(Protocol, Vec<u8>), Vec<Problem>> {
+pub fn read<K: Kinds>(path: &std::path::Path) -> Result<(Protocol<K>, Vec<u8>), Vec<Problem>> {
     let file = path.display().to_string();
     let whole = |message: String| vec![Problem::new(&file, message)];
     let bytes = std::fs::read(path).map_err(|e| whole(format!("cannot read: {e}")))?;
@@ -94,7 +95,7 @@ pub fn id_problem(id: &str) -> Option<String> {
 
 /// The walk over a protocol's JSON: each reader takes a value and its JSON
 /// path, records every problem it finds, and returns `None` if any part
-/// failed. A kind's `read` (`crate::kinds::StudyKind::read`) walks its
+/// failed. A kind's `read` ([`super::kind::StudyKind::read`]) walks its
 /// design with these.
 #[derive(Debug, Default)]
 pub struct Walk {
@@ -212,7 +213,7 @@ impl Walk {
         out.into_iter().collect()
     }
 
-    fn protocol(&mut self, v: &Value) -> Option<Protocol> {
+    fn protocol<K: Kinds>(&mut self, v: &Value) -> Option<Protocol<K>> {
         const KEYS: [&str; 10] = [
             "$schema",
             "id",
@@ -237,7 +238,7 @@ impl Walk {
         let break_s = self.optional(m, "break_s", p, 0.0_f64);
         let instructions = self.optional(m, "instructions", p, String::new());
         let design = if let Some(d) = m.get("design") {
-            Design::read(self, d, "design")
+            K::read_design(self, d, "design")
         } else {
             self.err("design", "missing required field");
             None
@@ -257,8 +258,8 @@ impl Walk {
     }
 
     /// A design whose `kind` is missing or not a registered kind.
-    pub(crate) fn unknown_kind(&mut self, path: &str, kind: Option<&str>) {
-        let kinds: Vec<&str> = Kind::ALL.iter().map(|k| k.as_str()).collect();
+    pub fn unknown_kind<K: Kinds>(&mut self, path: &str, kind: Option<&str>) {
+        let kinds: Vec<&str> = K::KINDS.iter().map(|k| k.name).collect();
         let message = match kind {
             Some(other) => format!(
                 "unknown kind '{other}'; expected one of: {}",

@@ -13,8 +13,10 @@
 //!    out, and the time it next wants to be woken.
 //!
 //! What differs between kinds of study (each kind's design, its checks,
-//! its trials, its live trial) is in `crate::kinds`, one module per kind;
-//! the loader, the plan and the engine reach it through the registry there.
+//! its trials, its live trial) is in the kinds' folders above this layer.
+//! The loader, the plan and the engine are written against the traits of
+//! [`kind`] and name no kind: the registry hands them its set of kinds as
+//! the type parameter `K` ([`kind::Kinds`]).
 //!
 //! Nothing here reads a clock, draws unseeded randomness, or touches a port.
 //! One function touches a file: [`load::read`], the shells' way to read a
@@ -28,6 +30,7 @@
 
 pub mod check;
 pub mod engine;
+pub mod kind;
 pub mod load;
 pub mod plan;
 
@@ -35,15 +38,15 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::friction::ModelParams;
-pub use crate::kinds::fitts::{FittsCondition, FittsDesign, FittsLevel, IdFormula, Tolerance};
-pub use crate::kinds::magnitude::{MagnitudeDesign, MagnitudeSet, Stimulus};
-pub use crate::kinds::paired::PairedDesign;
-pub use crate::kinds::{Design, Kind};
+use kind::Kinds;
 
+// `K` is the set of kinds the design may be of: the registry's
+// (`crate::kinds::Registry`), handed down from above.
 /// One session design: what a protocol file holds.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct Protocol {
+#[serde(deny_unknown_fields, bound = "")]
+#[schemars(rename = "Protocol", bound = "")]
+pub struct Protocol<K: Kinds> {
     /// Optional pointer to the JSON Schema, for editors.
     #[serde(rename = "$schema", default, skip_serializing_if = "Option::is_none")]
     pub schema: Option<String>,
@@ -70,15 +73,21 @@ pub struct Protocol {
     #[serde(default)]
     pub instructions: String,
     /// The study-specific design.
-    pub design: Design,
+    pub design: K::Design,
 }
 
-impl Protocol {
+impl<K: Kinds> Protocol<K> {
+    /// The kind of study (its design's `kind`).
+    #[must_use]
+    pub fn kind(&self) -> &'static str {
+        K::design_kind(&self.design)
+    }
+
     /// "`n` trials per session", or, for a kind whose trials adapt to the
     /// answers, that they decide.
     #[must_use]
     pub fn trials_per_session(&self) -> String {
-        match crate::kinds::source(self, 0, 0).planned() {
+        match K::source(self, 0, 0).planned() {
             Some(n) => format!("{n} trials per session"),
             None => "trials set by the answers".to_owned(),
         }
@@ -127,8 +136,8 @@ pub struct Condition {
 /// The JSON Schema of protocol files, pretty-printed (as shipped in
 /// `protocols/protocol.schema.json`).
 #[must_use]
-pub fn json_schema() -> String {
-    let schema = schemars::schema_for!(Protocol);
+pub fn json_schema<K: Kinds>() -> String {
+    let schema = schemars::schema_for!(Protocol<K>);
     serde_json::to_string_pretty(&schema).unwrap_or_default() + "\n"
 }
 

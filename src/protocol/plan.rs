@@ -3,7 +3,7 @@
 //! trial starts.
 //!
 //! # Randomization (with a `ChaCha8` generator seeded by the plan seed)
-//! - Blocks: each kind lists its own (`crate::kinds::StudyKind::blocks`):
+//! - Blocks: each kind lists its own ([`super::kind::StudyKind::blocks`]):
 //!   paired comparison has one block (`main`); magnitude estimation one per
 //!   set (named by its display); Fitts a `practice` block (if any) followed
 //!   by `main`. Non-practice blocks are ordered as listed, or by a
@@ -23,18 +23,15 @@ use rand::{Rng, SeedableRng, seq::SliceRandom};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
+use super::kind::{Block, Kinds};
 use super::{BlockOrder, Protocol, Randomization};
-use crate::kinds::Block;
-pub use crate::kinds::TrialSpec;
-pub use crate::kinds::fitts::FittsTrial;
-pub use crate::kinds::magnitude::MagnitudeTrial;
-pub use crate::kinds::paired::PairedTrial;
 
 /// Every trial of a session, in presentation order.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Plan {
+#[serde(bound = "")]
+pub struct Plan<K: Kinds> {
     /// The protocol the plan was drawn from.
-    pub protocol: Protocol,
+    pub protocol: Protocol<K>,
     /// The plan seed.
     pub seed: u64,
     /// The participant's index for counterbalancing (0-based).
@@ -42,12 +39,13 @@ pub struct Plan {
     /// Block names in session order.
     pub blocks: Vec<String>,
     /// The trials.
-    pub trials: Vec<PlannedTrial>,
+    pub trials: Vec<PlannedTrial<K>>,
 }
 
 /// One trial of the plan.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct PlannedTrial {
+#[serde(bound = "")]
+pub struct PlannedTrial<K: Kinds> {
     /// 0-based presentation order.
     pub index: usize,
     /// Block name.
@@ -61,24 +59,22 @@ pub struct PlannedTrial {
     /// Seed for everything random inside the trial.
     pub seed: u64,
     /// What the trial presents.
-    pub spec: TrialSpec,
+    pub spec: K::Trial,
 }
 
 /// Resolves a checked protocol into the plan for one session.
 #[must_use]
-pub fn resolve(protocol: &Protocol, seed: u64, participant_index: u32) -> Plan {
+pub fn resolve<K: Kinds>(protocol: &Protocol<K>, seed: u64, participant_index: u32) -> Plan<K> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let (practice, main): (Vec<Block<TrialSpec>>, Vec<Block<TrialSpec>>) = protocol
-        .design
-        .blocks()
+    let (practice, main): (Vec<_>, Vec<_>) = K::blocks(&protocol.design)
         .into_iter()
         .partition(|b| b.practice);
     let order = match protocol.block_order {
         BlockOrder::Fixed => (0..main.len()).collect(),
         BlockOrder::LatinSquare => williams_row(main.len(), participant_index as usize),
     };
-    let mut main: Vec<Option<Block<TrialSpec>>> = main.into_iter().map(Some).collect();
-    let ordered: Vec<Block<TrialSpec>> = practice
+    let mut main: Vec<Option<Block<K::Trial>>> = main.into_iter().map(Some).collect();
+    let ordered: Vec<Block<K::Trial>> = practice
         .into_iter()
         .chain(
             order
@@ -97,7 +93,7 @@ pub fn resolve(protocol: &Protocol, seed: u64, participant_index: u32) -> Plan {
             protocol.repetitions,
             &mut rng,
         ) {
-            let spec = spec.draw(&mut rng);
+            let spec = K::draw(spec, &mut rng);
             trials.push(PlannedTrial {
                 index: trials.len(),
                 block: block.name.clone(),
@@ -122,12 +118,12 @@ pub fn resolve(protocol: &Protocol, seed: u64, participant_index: u32) -> Plan {
 }
 
 /// The block's trials with their repetition index, in presentation order.
-fn order_trials(
-    trials: &[TrialSpec],
+fn order_trials<T: Clone>(
+    trials: &[T],
     randomization: Randomization,
     repetitions: u32,
     rng: &mut ChaCha8Rng,
-) -> Vec<(u32, TrialSpec)> {
+) -> Vec<(u32, T)> {
     let mut out: Vec<(u32, usize)> = Vec::new();
     for r in 0..repetitions {
         let mut idx: Vec<usize> = (0..trials.len()).collect();

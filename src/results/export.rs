@@ -7,7 +7,7 @@ use super::csv::text;
 use super::folder::ResultsDir;
 use super::session_log::{ReadLog, read_header};
 use super::{ResultsError, replace_file};
-use crate::kinds::Kind;
+use crate::protocol::kind::Kinds;
 
 /// The data CSV columns every kind has.
 pub const COMMON_COLUMNS: [&str; 10] = [
@@ -26,17 +26,17 @@ pub const COMMON_COLUMNS: [&str; 10] = [
 /// The data CSV of a session, from its log. Lists (`tap_x_m`, ...) are
 /// `;`-separated; missing values are empty cells.
 #[must_use]
-pub fn data_csv(log: &ReadLog) -> String {
+pub fn data_csv<K: Kinds>(log: &ReadLog<K>) -> String {
     let h = &log.header;
-    let kind = h.protocol.design.kind();
+    let kind = h.protocol.kind();
     let mut out: Vec<&str> = COMMON_COLUMNS.to_vec();
-    out.extend_from_slice(kind.columns());
+    out.extend_from_slice(K::columns(kind).unwrap_or_default());
     let mut csv = out.join(",");
     csv.push('\n');
     for r in &log.trials {
         let mut row = vec![
             text(&h.protocol_id),
-            kind.as_str().to_owned(),
+            kind.to_owned(),
             text(&h.participant),
             h.session.to_string(),
             r.trial.to_string(),
@@ -46,7 +46,7 @@ pub fn data_csv(log: &ReadLog) -> String {
             r.practice.to_string(),
             r.repetition.to_string(),
         ];
-        row.extend(r.data.row());
+        row.extend(K::row(&r.data));
         csv.push_str(&row.join(","));
         csv.push('\n');
     }
@@ -58,15 +58,15 @@ pub fn data_csv(log: &ReadLog) -> String {
 ///
 /// # Errors
 /// Any I/O error.
-pub fn write_dataset_description(
+pub fn write_dataset_description<K: Kinds>(
     dir: &ResultsDir,
     kinds: &BTreeSet<&'static str>,
 ) -> Result<(), ResultsError> {
     let mut columns: Vec<&str> = COMMON_COLUMNS.to_vec();
-    for kind in Kind::ALL {
-        if kinds.contains(kind.as_str()) {
+    for kind in K::KINDS {
+        if kinds.contains(kind.name) {
             columns.extend(
-                kind.columns()
+                kind.columns
                     .iter()
                     .filter(|c| !columns.contains(c))
                     .collect::<Vec<_>>(),
@@ -95,10 +95,10 @@ pub fn write_dataset_description(
 
 /// The kinds of every session log in the folder.
 #[must_use]
-pub fn kinds_present(dir: &ResultsDir) -> BTreeSet<&'static str> {
+pub fn kinds_present<K: Kinds>(dir: &ResultsDir) -> BTreeSet<&'static str> {
     dir.logs()
         .iter()
-        .filter_map(|p| read_header(p).ok())
-        .map(|h| h.protocol.design.kind().as_str())
+        .filter_map(|p| read_header::<K>(p).ok())
+        .map(|h| h.protocol.kind())
         .collect()
 }

@@ -7,7 +7,8 @@ use std::path::{Path, PathBuf};
 
 use super::ResultsError;
 use super::lock::{self, FolderLock};
-use super::session_log::{Header, read_header};
+use super::session_log::{Header, header_participant, read_header};
+use crate::protocol::kind::Kinds;
 
 pub use crate::protocol::load::MAX_ID_CHARS;
 
@@ -89,10 +90,10 @@ impl ResultsDir {
 
     /// The headers of every readable session log in the folder.
     #[must_use]
-    pub fn headers(&self) -> Vec<Header> {
+    pub fn headers<K: Kinds>(&self) -> Vec<Header<K>> {
         self.logs()
             .iter()
-            .filter_map(|p| read_header(p).ok())
+            .filter_map(|p| read_header::<K>(p).ok())
             .collect()
     }
 
@@ -124,11 +125,11 @@ impl ResultsDir {
                 continue;
             };
             let Ok(n) = n.parse::<u32>() else { continue };
-            let header = read_header(&path)?;
-            if header.participant != participant {
+            let other = header_participant(&path)?;
+            if other != participant {
                 return Err(ResultsError::Collision {
                     participant: participant.to_owned(),
-                    other: header.participant,
+                    other,
                     key: file_key(participant),
                 });
             }

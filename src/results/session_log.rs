@@ -14,14 +14,16 @@ use sha2::{Digest, Sha256};
 use super::{ResultsError, io_err, lock};
 use crate::protocol::Protocol;
 use crate::protocol::engine::{Status, TrialRecord};
+use crate::protocol::kind::Kinds;
 
 /// Format tag of the log header.
 pub const LOG_FORMAT: &str = "frictionlab-log/1";
 
 /// The first line of a session log.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct Header {
+#[serde(deny_unknown_fields, bound = "")]
+#[schemars(rename = "Header", bound = "")]
+pub struct Header<K: Kinds> {
     /// [`LOG_FORMAT`].
     pub format: String,
     /// frictionlab version that wrote the log.
@@ -31,7 +33,7 @@ pub struct Header {
     /// SHA-256 of the protocol file's bytes, hex.
     pub protocol_sha256: String,
     /// The protocol as loaded (resume replays it).
-    pub protocol: Protocol,
+    pub protocol: Protocol<K>,
     /// Plan seed.
     pub plan_seed: u64,
     /// Participant id.
@@ -53,17 +55,14 @@ pub struct Header {
 }
 
 /// One line of a session log.
-#[expect(
-    clippy::large_enum_variant,
-    reason = "lines are written one at a time; boxing the trial record buys nothing"
-)]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(tag = "type", rename_all = "snake_case")]
-pub enum LogLine {
+#[serde(tag = "type", rename_all = "snake_case", bound = "")]
+#[schemars(rename = "LogLine", bound = "")]
+pub enum LogLine<K: Kinds> {
     /// The header (first line).
-    Header(Box<Header>),
+    Header(Box<Header<K>>),
     /// A completed or aborted trial.
-    Trial(TrialRecord),
+    Trial(TrialRecord<K>),
     /// The session was resumed here.
     Resumed {
         /// First trial run after the resume.
@@ -96,8 +95,8 @@ pub enum LogLine {
 /// The JSON Schema of one session-log line, pretty-printed (as shipped in
 /// `results-schema/log-line.schema.json`).
 #[must_use]
-pub fn log_json_schema() -> String {
-    let schema = schemars::schema_for!(LogLine);
+pub fn log_json_schema<K: Kinds>() -> String {
+    let schema = schemars::schema_for!(LogLine<K>);
     serde_json::to_string_pretty(&schema).unwrap_or_default() + "\n"
 }
 
@@ -129,7 +128,7 @@ impl SessionLog {
     ///
     /// # Errors
     /// The file exists, or any I/O error.
-    pub fn create(path: &Path, header: Header) -> Result<Self, ResultsError> {
+    pub fn create<K: Kinds>(path: &Path, header: Header<K>) -> Result<Self, ResultsError> {
         if let Some(parent) = path.parent() {
             std::fs::create_dir_all(parent).map_err(io_err(parent))?;
         }
@@ -211,7 +210,7 @@ impl SessionLog {
     ///
     /// # Errors
     /// Any I/O error.
-    pub fn append(&mut self, line: &LogLine) -> Result<(), ResultsError> {
+    pub fn append<K: Kinds>(&mut self, line: &LogLine<K>) -> Result<(), ResultsError> {
         let mut text = serde_json::to_string(line).map_err(|e| ResultsError::Io {
             path: self.path.display().to_string(),
             source: io::Error::other(e),
@@ -233,11 +232,11 @@ impl SessionLog {
 
 /// A log as read back.
 #[derive(Debug, Clone, PartialEq)]
-pub struct ReadLog {
+pub struct ReadLog<K: Kinds> {
     /// The header.
-    pub header: Header,
+    pub header: Header<K>,
     /// Trial records in log order.
-    pub trials: Vec<TrialRecord>,
+    pub trials: Vec<TrialRecord<K>>,
     /// Whether the session ended.
     pub ended: bool,
     /// Length of the valid part (up to the last complete line), bytes.
@@ -246,7 +245,7 @@ pub struct ReadLog {
     pub torn_bytes: u64,
 }
 
-impl ReadLog {
+impl<K: Kinds> ReadLog<K> {
     /// Trials logged as completed.
     #[must_use]
     pub fn completed(&self) -> usize {
@@ -264,21 +263,48 @@ impl ReadLog {
     }
 }
 
-pub(super) fn read_header(path: &Path) -> Result<Header, ResultsError> {
+/// The first line of the log at `path`, read as `T`.
+fn first_line<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, ResultsError> {
     let file = File::open(path).map_err(io_err(path))?;
     let mut first = String::new();
     BufReader::new(file)
         .read_line(&mut first)
         .map_err(io_err(path))?;
-    match serde_json::from_str::<LogLine>(first.trim_end()) {
-        Ok(LogLine::Header(h)) => Ok(*h),
-        Ok(_) => Err(log_error(
+    serde_json::from_str::<T>(first.trim_end())
+        .map_err(|e| log_error(path, 1, e.column(), e.to_string()))
+}
+
+/// The participant a log's header names, read without its kind.
+pub(super) fn header_participant(path: &Path) -> Result<String, ResultsError> {
+    /// The header's fields this needs (the others are not read).
+    #[derive(Deserialize)]
+    struct Who {
+        #[serde(rename = "type")]
+        line: String,
+        participant: String,
+    }
+    let who: Who = first_line(path)?;
+    if who.line == "header" {
+        Ok(who.participant)
+    } else {
+        Err(log_error(
+            path,
+            1,
+            1,
+            "the first line is not a header".into(),
+        ))
+    }
+}
+
+pub(super) fn read_header<K: Kinds>(path: &Path) -> Result<Header<K>, ResultsError> {
+    match first_line::<LogLine<K>>(path)? {
+        LogLine::Header(h) => Ok(*h),
+        _ => Err(log_error(
             path,
             1,
             1,
             "the first line is not a header".into(),
         )),
-        Err(e) => Err(log_error(path, 1, e.column(), e.to_string())),
     }
 }
 
@@ -297,7 +323,7 @@ fn log_error(path: &Path, line: usize, column: usize, message: String) -> Result
 ///
 /// # Errors
 /// A missing or bad header, a malformed line before the last, or I/O.
-pub fn read_log(path: &Path) -> Result<ReadLog, ResultsError> {
+pub fn read_log<K: Kinds>(path: &Path) -> Result<ReadLog<K>, ResultsError> {
     let bytes = std::fs::read(path).map_err(io_err(path))?;
     parse_log(path, &bytes)
 }
@@ -306,15 +332,15 @@ pub fn read_log(path: &Path) -> Result<ReadLog, ResultsError> {
 ///
 /// # Errors
 /// As [`read_log`].
-pub fn parse_log(path: &Path, bytes: &[u8]) -> Result<ReadLog, ResultsError> {
+pub fn parse_log<K: Kinds>(path: &Path, bytes: &[u8]) -> Result<ReadLog<K>, ResultsError> {
     parse_log_lines(path, bytes).map(|(read, _)| read)
 }
 
 /// [`parse_log`], with the line (1-based) of each trial record.
-pub(super) fn parse_log_lines(
+pub(super) fn parse_log_lines<K: Kinds>(
     path: &Path,
     bytes: &[u8],
-) -> Result<(ReadLog, Vec<usize>), ResultsError> {
+) -> Result<(ReadLog<K>, Vec<usize>), ResultsError> {
     let mut header = None;
     let mut trials = Vec::new();
     let mut lines = Vec::new();
@@ -335,7 +361,7 @@ pub(super) fn parse_log_lines(
         let parsed = std::str::from_utf8(line)
             .map_err(|e| (e.valid_up_to() + 1, e.to_string()))
             .and_then(|s| {
-                serde_json::from_str::<LogLine>(s).map_err(|e| (e.column(), e.to_string()))
+                serde_json::from_str::<LogLine<K>>(s).map_err(|e| (e.column(), e.to_string()))
             });
         let is_last = next >= bytes.len();
         match parsed {
@@ -391,6 +417,6 @@ pub(super) fn parse_log_lines(
 
 /// Whether a record counts as completed.
 #[must_use]
-pub fn is_completed(r: &TrialRecord) -> bool {
+pub fn is_completed<K: Kinds>(r: &TrialRecord<K>) -> bool {
     r.status == Status::Completed
 }

@@ -19,6 +19,7 @@ use super::folder::ResultsDir;
 use super::session_log::{LogLine, ReadLog, parse_log_lines};
 use super::{ResultsError, lock};
 use crate::problem::Problem;
+use crate::protocol::kind::Kinds;
 
 /// The start of the message of a data CSV without its session log (the
 /// command line adds how to analyse such data unchecked).
@@ -55,9 +56,9 @@ pub fn data_files(dir: &Path) -> Vec<PathBuf> {
 ///
 /// # Errors
 /// The first problem found.
-pub fn verify(dir: &Path, jobs: usize) -> Result<Verified, Problem> {
+pub fn verify<K: Kinds>(dir: &Path, jobs: usize) -> Result<Verified, Problem> {
     let files = data_files(dir);
-    let checked = crate::parallel::run(&files, jobs, |csv| check_file(dir, csv));
+    let checked = crate::parallel::run(&files, jobs, |csv| check_file::<K>(dir, csv));
     let mut out = Verified::default();
     for (csv, result) in files.iter().zip(checked) {
         let (analyse, notice) = result?;
@@ -67,7 +68,7 @@ pub fn verify(dir: &Path, jobs: usize) -> Result<Verified, Problem> {
         out.notices.extend(notice);
     }
     for log in ResultsDir::new(dir).logs() {
-        if let Some(problem) = log_without_csv(dir, &log) {
+        if let Some(problem) = log_without_csv::<K>(dir, &log) {
             return Err(problem);
         }
     }
@@ -76,7 +77,7 @@ pub fn verify(dir: &Path, jobs: usize) -> Result<Verified, Problem> {
 
 /// A log with trials whose data CSV is missing (a session open elsewhere
 /// may not have written its CSV yet).
-fn log_without_csv(dir: &Path, log: &Path) -> Option<Problem> {
+fn log_without_csv<K: Kinds>(dir: &Path, log: &Path) -> Option<Problem> {
     let name = log.file_name()?.to_string_lossy().into_owned();
     let stem = name.strip_suffix("_log.jsonl")?;
     let csv = dir.join("data").join(format!("{stem}_data.csv"));
@@ -84,7 +85,7 @@ fn log_without_csv(dir: &Path, log: &Path) -> Option<Problem> {
         return None;
     }
     let bytes = std::fs::read(log).ok()?;
-    let (read, _) = parse_log_lines(log, &bytes).ok()?;
+    let (read, _) = parse_log_lines::<K>(log, &bytes).ok()?;
     (!read.trials.is_empty()).then(|| {
         Problem::new(
             log.display().to_string(),
@@ -98,7 +99,7 @@ fn log_without_csv(dir: &Path, log: &Path) -> Option<Problem> {
 }
 
 /// Checks one CSV; `(analyse it, a notice)`.
-fn check_file(dir: &Path, csv: &Path) -> Result<(bool, Option<String>), Problem> {
+fn check_file<K: Kinds>(dir: &Path, csv: &Path) -> Result<(bool, Option<String>), Problem> {
     let name = csv
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -127,7 +128,8 @@ fn check_file(dir: &Path, csv: &Path) -> Result<(bool, Option<String>), Problem>
     }
     let bytes = std::fs::read(&log)
         .map_err(|e| at(log.display().to_string(), format!("cannot read: {e}")))?;
-    let (read, lines) = parse_log_lines(&log, &bytes).map_err(|e| log_problem(e, &bytes))?;
+    let (read, lines) =
+        parse_log_lines::<K>(&log, &bytes).map_err(|e| log_problem::<K>(e, &bytes))?;
     let mut notice = None;
     if read.torn_bytes > 0 {
         let valid = usize::try_from(read.valid_len).unwrap_or(bytes.len());
@@ -136,7 +138,7 @@ fn check_file(dir: &Path, csv: &Path) -> Result<(bool, Option<String>), Problem>
         if bytes.ends_with(b"\n") {
             // A whole line, yet no record: not a write a kill cut short.
             let text = String::from_utf8_lossy(&bytes[valid..]);
-            let why = serde_json::from_str::<LogLine>(text.trim_end())
+            let why = serde_json::from_str::<LogLine<K>>(text.trim_end())
                 .err()
                 .map_or_else(|| "not a log record".to_owned(), |e| e.to_string());
             return Err(at(
@@ -176,7 +178,7 @@ fn check_file(dir: &Path, csv: &Path) -> Result<(bool, Option<String>), Problem>
 }
 
 /// A log's problem with the trial it follows, as a [`Problem`].
-fn log_problem(e: ResultsError, bytes: &[u8]) -> Problem {
+fn log_problem<K: Kinds>(e: ResultsError, bytes: &[u8]) -> Problem {
     match e {
         ResultsError::Log {
             path,
@@ -188,7 +190,7 @@ fn log_problem(e: ResultsError, bytes: &[u8]) -> Problem {
             let before = bytes
                 .split(|&b| b == b'\n')
                 .take(line.saturating_sub(1))
-                .filter_map(|l| match serde_json::from_slice::<LogLine>(l) {
+                .filter_map(|l| match serde_json::from_slice::<LogLine<K>>(l) {
                     Ok(LogLine::Trial(r)) => Some(r.trial),
                     _ => None,
                 })
@@ -206,7 +208,7 @@ fn log_problem(e: ResultsError, bytes: &[u8]) -> Problem {
 }
 
 /// ` (after trial T's record)` for the record before index `i`.
-fn after(read: &ReadLog, i: usize) -> String {
+fn after<K: Kinds>(read: &ReadLog<K>, i: usize) -> String {
     i.checked_sub(1)
         .and_then(|k| read.trials.get(k))
         .map(|r| format!(" (after trial {}'s record)", r.trial))
@@ -297,11 +299,11 @@ fn alike(a: &str, b: &str) -> bool {
 }
 
 /// Holds the CSV `text` against the rows its log gives (module docs).
-fn compare(
+fn compare<K: Kinds>(
     csv: &Path,
     log: &Path,
     text: &str,
-    read: &ReadLog,
+    read: &ReadLog<K>,
     lines: &[usize],
 ) -> Result<(), Problem> {
     let actual = records(text);
@@ -366,10 +368,10 @@ fn compare(
 }
 
 /// A CSV and what its log gives, being compared.
-struct Held<'a> {
+struct Held<'a, K: Kinds> {
     csv: &'a Path,
     log: &'a Path,
-    read: &'a ReadLog,
+    read: &'a ReadLog<K>,
     /// Each trial record's log line.
     lines: &'a [usize],
     /// The CSV's column names.
@@ -380,7 +382,7 @@ struct Held<'a> {
     exp_trial: Option<usize>,
 }
 
-impl Held<'_> {
+impl<K: Kinds> Held<'_, K> {
     fn col(&self, name: &str) -> Option<usize> {
         self.names.iter().position(|n| *n == name)
     }

@@ -9,9 +9,9 @@ use std::time::{Duration, Instant};
 
 use super::{Phase, Responder, Session, SessionError, SessionRequest};
 use crate::interrupt::{Interrupt, Signal};
+use crate::kinds::{Header, Protocol};
 use crate::participant::SimParticipant;
-use crate::protocol::Protocol;
-use crate::results::{Header, ResultsDir};
+use crate::results::ResultsDir;
 
 /// How a session went.
 #[derive(Debug, Clone, PartialEq)]

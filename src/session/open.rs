@@ -10,12 +10,13 @@ use std::sync::Arc;
 
 use super::SessionError;
 use super::record::StreamRecorder;
-use crate::kinds::source;
-use crate::protocol::Protocol;
-use crate::protocol::engine::{Engine, TrialSource};
+use crate::kinds::{Engine, Protocol, Registry};
+use crate::kinds::{Header, LogLine, ReadLog};
+use crate::protocol::engine::TrialSource;
+use crate::protocol::kind::Kinds;
 use crate::results::{
-    Header, LOG_FORMAT, LogLine, ReadLog, ResultsDir, ResultsError, SessionFiles, SessionLog,
-    data_csv, kinds_present, read_log, replace_file, sha256_hex, write_dataset_description,
+    LOG_FORMAT, ResultsDir, ResultsError, SessionFiles, SessionLog, data_csv, kinds_present,
+    read_log, replace_file, sha256_hex, write_dataset_description,
 };
 
 /// Where a session renders friction.
@@ -70,7 +71,7 @@ pub struct SessionRequest<'a> {
 pub struct Planned {
     /// Where the session's trials come from: the protocol's plan, drawn
     /// from the plan seed and participant index.
-    pub source: Arc<dyn TrialSource>,
+    pub source: Arc<dyn TrialSource<Registry>>,
     opening: Opening,
     streams: bool,
 }
@@ -146,7 +147,7 @@ pub fn plan(
         }
         let h = &read.header;
         return Ok(Planned {
-            source: source(&h.protocol, h.plan_seed, h.participant_index),
+            source: Registry::source(&h.protocol, h.plan_seed, h.participant_index),
             opening: Opening::Resume {
                 read: Box::new(read),
                 files: last,
@@ -161,7 +162,7 @@ pub fn plan(
     let participant_index = req
         .participant_index
         .unwrap_or_else(|| dir.other_participants(id, req.participant));
-    let source = source(req.protocol, req.seed, participant_index);
+    let source = Registry::source(req.protocol, req.seed, participant_index);
     let header = Header {
         format: LOG_FORMAT.into(),
         software_version: env!("CARGO_PKG_VERSION").into(),
@@ -289,7 +290,7 @@ impl Planned {
                     torn_bytes: 0,
                 };
                 replace_file(&files.csv, data_csv(&read).as_bytes(), false)?;
-                write_dataset_description(dir, &kinds_present(dir))?;
+                write_dataset_description::<Registry>(dir, &kinds_present::<Registry>(dir))?;
                 Ok(OpenLog {
                     log,
                     streams: StreamRecorder::new(dir, &read.header, self.streams),

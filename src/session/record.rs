@@ -6,8 +6,8 @@ use std::path::PathBuf;
 
 use super::open::OpenLog;
 use crate::device::DeviceSample;
-use crate::protocol::engine::TrialRecord;
-use crate::results::{Header, LogLine, ResultsDir, ResultsError, data_csv, replace_file};
+use crate::kinds::{Header, LogLine, TrialRecord};
+use crate::results::{ResultsDir, ResultsError, data_csv, replace_file};
 
 /// Records each trial's device stream at the loop rate and writes it, when
 /// the trial ends, to

@@ -5,22 +5,12 @@
 
 use crate::device::DeviceSample;
 use crate::hand::HandDrive;
+use crate::kinds::{Action, PlannedTrial};
+pub use crate::participant::Reaction;
 use crate::participant::SimParticipant;
-use crate::protocol::engine::{Action, Input};
-use crate::protocol::plan::PlannedTrial;
 use crate::results::ResultsDir;
 
 use super::{Session, SessionError, SessionRequest};
-
-/// What a responder does in response to an action or a sample.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Reaction {
-    /// Inputs for the engine, in order.
-    pub inputs: Vec<Input>,
-    /// Put the device (and hand) at rest here first, m. Only the simulated
-    /// device can do this; on a real one the hand moves there itself.
-    pub reset_to: Option<f64>,
-}
 
 /// Who answers the session's questions and moves the hand.
 pub trait Responder {

@@ -8,7 +8,8 @@ use std::path::Path;
 use super::device::count_f64;
 use super::{DeviceStatus, Log, Responder, Session, SessionOutcome};
 use crate::device::DeviceSample;
-use crate::protocol::engine::{Action, Engine, Question, Screen};
+use crate::kinds::{Action, Engine};
+use crate::protocol::engine::{Question, Screen};
 
 /// Interval of the live trace, s (200 Hz).
 pub const TRACE_EVERY_S: f64 = 0.005;

@@ -127,7 +127,7 @@ pub fn emulator_with(path: &std::path::Path, options: &[&str]) -> std::process::
 }
 
 /// The completed trials of a session log, in plan order.
-pub fn completed_trials(log: &frictionlab::results::ReadLog) -> Vec<usize> {
+pub fn completed_trials(log: &frictionlab::kinds::ReadLog) -> Vec<usize> {
     let mut completed: Vec<usize> = log
         .trials
         .iter()

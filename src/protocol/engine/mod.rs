@@ -10,8 +10,9 @@
 //! # Kinds
 //! What every kind shares (instructions, the reference phase, breaks,
 //! experimenter prompts, aborts, the write rule) is here. A live trial of
-//! each kind is its kind's `crate::kinds::LiveTrial` (its start, timer,
-//! inputs and logged data), in the kind's module under `src/kinds/`.
+//! each kind is its kind's [`super::kind::LiveTrial`] (its start, timer,
+//! inputs and logged data), in the kind's folder under `src/kinds/`; the
+//! engine reaches it through the set of kinds `K` ([`Kinds`]).
 //!
 //! # Timers
 //! The engine owns its timers, as quinn-proto does: [`Engine::poll_timeout`]
@@ -37,15 +38,13 @@ use std::collections::VecDeque;
 use std::sync::Arc;
 
 use super::Protocol;
+use super::kind::{Kinds, Next};
 use super::plan::{Plan, PlannedTrial};
 use crate::friction::ModelParams;
-use crate::kinds::{LiveState, Next};
 
 mod record;
 mod source;
 
-pub use crate::kinds::TrialData;
-pub use crate::kinds::magnitude::parse_magnitude;
 pub use record::{Choice, RenderEntry, RenderMode, Status, TrialRecord};
 pub use source::{TrialSource, next_position};
 
@@ -150,11 +149,7 @@ pub enum Question {
 
 /// What the engine asks the shell to do.
 #[derive(Debug, Clone, PartialEq)]
-#[expect(
-    clippy::large_enum_variant,
-    reason = "a Record comes once per trial; boxing it would change every match on it"
-)]
-pub enum Action {
+pub enum Action<K: Kinds> {
     /// Render this model from now on (`None`: render nothing).
     Render(Option<ModelParams>),
     /// For the simulated device: the physical friction of the apparatus from
@@ -169,49 +164,49 @@ pub enum Action {
     /// Ask the experimenter to do this, then [`Input::Continue`].
     Prompt(String),
     /// Write this record to disk, then send [`Input::Recorded`].
-    Record(TrialRecord),
+    Record(TrialRecord<K>),
     /// Every planned trial is done.
     Finished,
 }
 
 #[derive(Debug, Clone)]
-enum Stage {
+enum Stage<K: Kinds> {
     Idle,
     Instructions,
     Reference { until: f64 },
     Break { until: f64 },
     Prompt,
-    Trial(Live),
+    Trial(Live<K>),
     AwaitWrite { requeue: bool },
     Finished,
 }
 
 #[derive(Debug, Clone)]
-struct Live {
+struct Live<K: Kinds> {
     started: f64,
-    state: LiveState,
+    state: K::Live,
 }
 
-/// The session engine.
+/// The session engine, for the set of kinds `K`.
 #[derive(Debug, Clone)]
-pub struct Engine {
-    protocol: Protocol,
-    source: Arc<dyn TrialSource>,
-    history: Vec<TrialRecord>,
+pub struct Engine<K: Kinds> {
+    protocol: Protocol<K>,
+    source: Arc<dyn TrialSource<K>>,
+    history: Vec<TrialRecord<K>>,
     next: usize,
-    current: Option<PlannedTrial>,
+    current: Option<PlannedTrial<K>>,
     /// Block of the last trial finally logged (a break comes before the
     /// first trial of another block).
     previous_block: Option<usize>,
-    stage: Stage,
-    out: VecDeque<Action>,
+    stage: Stage<K>,
+    out: VecDeque<Action<K>>,
 }
 
-impl Engine {
+impl<K: Kinds> Engine<K> {
     /// An engine that will run `plan` from trial `start_at` (0 for a new
     /// session).
     #[must_use]
-    pub fn new(plan: Plan, start_at: usize) -> Self {
+    pub fn new(plan: Plan<K>, start_at: usize) -> Self {
         let previous_block = start_at
             .checked_sub(1)
             .and_then(|i| plan.trials.get(i))
@@ -227,9 +222,9 @@ impl Engine {
     /// after the records of `history` (empty for a new session).
     #[must_use]
     pub fn resume(
-        protocol: Protocol,
-        source: Arc<dyn TrialSource>,
-        history: Vec<TrialRecord>,
+        protocol: Protocol<K>,
+        source: Arc<dyn TrialSource<K>>,
+        history: Vec<TrialRecord<K>>,
     ) -> Self {
         let next = next_position(&history);
         let previous_block = history
@@ -252,7 +247,7 @@ impl Engine {
 
     /// The protocol.
     #[must_use]
-    pub fn protocol(&self) -> &Protocol {
+    pub fn protocol(&self) -> &Protocol<K> {
         &self.protocol
     }
 
@@ -264,7 +259,7 @@ impl Engine {
 
     /// Every record of the session so far, in log order.
     #[must_use]
-    pub fn history(&self) -> &[TrialRecord] {
+    pub fn history(&self) -> &[TrialRecord<K>] {
         &self.history
     }
 
@@ -276,7 +271,7 @@ impl Engine {
 
     /// The current (or next) trial, if any is left.
     #[must_use]
-    pub fn trial(&self) -> Option<&PlannedTrial> {
+    pub fn trial(&self) -> Option<&PlannedTrial<K>> {
         self.current.as_ref()
     }
 
@@ -300,7 +295,7 @@ impl Engine {
     }
 
     /// The next action for the shell, if any.
-    pub fn poll(&mut self) -> Option<Action> {
+    pub fn poll(&mut self) -> Option<Action<K>> {
         self.out.pop_front()
     }
 
@@ -333,7 +328,7 @@ impl Engine {
     pub fn poll_timeout(&self) -> Option<f64> {
         match &self.stage {
             Stage::Reference { until } | Stage::Break { until } => Some(*until),
-            Stage::Trial(live) => live.state.timeout(),
+            Stage::Trial(live) => K::timeout(&live.state),
             _ => None,
         }
     }
@@ -349,14 +344,14 @@ impl Engine {
             Stage::Reference { .. } => self.begin_trial(now_s, false),
             Stage::Break { .. } => self.begin_trial(now_s, true),
             Stage::Trial(mut live) => {
-                let next = live.state.on_timeout(now_s, &mut self.out);
+                let next = K::on_timeout(&mut live.state, now_s, &mut self.out);
                 self.after(now_s, live, next)
             }
             stage => stage,
         };
     }
 
-    fn start(&mut self, now: f64) -> Stage {
+    fn start(&mut self, now: f64) -> Stage<K> {
         if self.next == 0 && !self.protocol.instructions.is_empty() {
             self.out.push_back(Action::Show(Screen::Instructions(
                 self.protocol.instructions.clone(),
@@ -366,8 +361,8 @@ impl Engine {
         self.after_instructions(now)
     }
 
-    fn after_instructions(&mut self, now: f64) -> Stage {
-        if let Some((instructions, duration)) = self.protocol.design.reference()
+    fn after_instructions(&mut self, now: f64) -> Stage<K> {
+        if let Some((instructions, duration)) = K::reference(&self.protocol.design)
             && self.next == 0
         {
             let until = now + duration;
@@ -382,7 +377,7 @@ impl Engine {
 
     /// Starts the next trial, with a break first at a block boundary (unless
     /// `break_done`).
-    fn begin_trial(&mut self, now: f64, break_done: bool) -> Stage {
+    fn begin_trial(&mut self, now: f64, break_done: bool) -> Stage<K> {
         let Some(trial) = &self.current else {
             self.out.push_back(Action::Render(None));
             self.out.push_back(Action::Finished);
@@ -396,18 +391,18 @@ impl Engine {
                 .push_back(Action::Show(Screen::Break { until_s: until }));
             return Stage::Break { until };
         }
-        if let Some(text) = trial.spec.prompt() {
+        if let Some(text) = K::prompt(&trial.spec) {
             self.out.push_back(Action::Prompt(text.to_owned()));
             return Stage::Prompt;
         }
         self.start_live(now)
     }
 
-    fn start_live(&mut self, now: f64) -> Stage {
+    fn start_live(&mut self, now: f64) -> Stage<K> {
         let Some(state) = self
             .current
             .as_ref()
-            .map(|trial| LiveState::start(&trial.spec, now, &mut self.out))
+            .map(|trial| K::start(&trial.spec, now, &mut self.out))
         else {
             return Stage::Finished;
         };
@@ -417,16 +412,16 @@ impl Engine {
         })
     }
 
-    fn live(&mut self, now: f64, mut live: Live, input: Input) -> Stage {
+    fn live(&mut self, now: f64, mut live: Live<K>, input: Input) -> Stage<K> {
         if let Input::Abort { reason, requeue } = input {
             return self.finish(now, &live, Some(reason), requeue);
         }
-        let next = live.state.on_input(now, input, &mut self.out);
+        let next = K::on_input(&mut live.state, now, input, &mut self.out);
         self.after(now, live, next)
     }
 
     /// Goes on with the live trial, or ends it as its kind says.
-    fn after(&mut self, now: f64, live: Live, next: Next) -> Stage {
+    fn after(&mut self, now: f64, live: Live<K>, next: Next) -> Stage<K> {
         match next {
             Next::Stay => Stage::Trial(live),
             Next::Finish(abort) => self.finish(now, &live, abort, false),
@@ -434,7 +429,13 @@ impl Engine {
     }
 
     /// Ends the live trial: record it and wait for the write.
-    fn finish(&mut self, now: f64, live: &Live, abort: Option<String>, requeue: bool) -> Stage {
+    fn finish(
+        &mut self,
+        now: f64,
+        live: &Live<K>,
+        abort: Option<String>,
+        requeue: bool,
+    ) -> Stage<K> {
         let Some(trial) = &self.current else {
             return Stage::Finished;
         };
@@ -443,9 +444,7 @@ impl Engine {
         } else {
             Status::Completed
         };
-        let data = live
-            .state
-            .data(live.started, now, status == Status::Completed);
+        let data = K::data(&live.state, live.started, now, status == Status::Completed);
         let record = TrialRecord {
             trial: trial.index,
             block: trial.block.clone(),

@@ -3,7 +3,7 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::kinds::TrialData;
+use crate::protocol::kind::Kinds;
 
 /// A paired-comparison answer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
@@ -52,8 +52,9 @@ impl Status {
 
 /// One trial's record, as logged.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct TrialRecord {
+#[serde(deny_unknown_fields, bound = "")]
+#[schemars(rename = "TrialRecord", bound = "")]
+pub struct TrialRecord<K: Kinds> {
     /// Planned trial index (0-based presentation order).
     pub trial: usize,
     /// Block name.
@@ -79,7 +80,7 @@ pub struct TrialRecord {
     /// Session time at its end, s.
     pub ended_s: f64,
     /// What was presented and answered.
-    pub data: TrialData,
+    pub data: K::Data,
     /// What rendered the trial's friction, one entry per render the
     /// trial's stream shows, in order; the stream's `render` column indexes
     /// it. Filled by the session (the engine knows no device); absent in

@@ -2,6 +2,7 @@
 //! the fixed case.
 
 use super::TrialRecord;
+use crate::protocol::kind::Kinds;
 use crate::protocol::plan::{Plan, PlannedTrial};
 
 /// Where a session's trials come from: the trial at each presentation
@@ -10,19 +11,19 @@ use crate::protocol::plan::{Plan, PlannedTrial};
 /// the answers. A source is a pure function of its arguments: it keeps no
 /// state of its own, so a resumed session rebuilds it exactly by handing it
 /// the logged records.
-pub trait TrialSource: std::fmt::Debug + Send + Sync {
+pub trait TrialSource<K: Kinds>: std::fmt::Debug + Send + Sync {
     /// The trial to present at position `index` (0-based), given the
     /// session's records so far in log order (re-queued ones included);
     /// `None` when the session is over.
-    fn trial(&self, index: usize, history: &[TrialRecord]) -> Option<PlannedTrial>;
+    fn trial(&self, index: usize, history: &[TrialRecord<K>]) -> Option<PlannedTrial<K>>;
     /// How many trials the session will have, if known in advance.
     fn planned(&self) -> Option<usize>;
     /// The haptic loop rate the session's models need, Hz.
     fn loop_rate_hz(&self) -> f64;
 }
 
-impl TrialSource for Plan {
-    fn trial(&self, index: usize, _: &[TrialRecord]) -> Option<PlannedTrial> {
+impl<K: Kinds> TrialSource<K> for Plan<K> {
+    fn trial(&self, index: usize, _: &[TrialRecord<K>]) -> Option<PlannedTrial<K>> {
         self.trials.get(index).cloned()
     }
 
@@ -35,7 +36,7 @@ impl TrialSource for Plan {
     fn loop_rate_hz(&self) -> f64 {
         self.trials
             .iter()
-            .map(|t| t.spec.loop_rate_hz())
+            .map(|t| K::loop_rate_hz(&t.spec))
             .fold(1000.0, f64::max)
     }
 }
@@ -43,7 +44,7 @@ impl TrialSource for Plan {
 /// The first position not yet finally logged: where a resume starts. A
 /// trial is final when completed, or aborted and not re-queued.
 #[must_use]
-pub fn next_position(history: &[TrialRecord]) -> usize {
+pub fn next_position<K: Kinds>(history: &[TrialRecord<K>]) -> usize {
     history
         .iter()
         .filter(|r| !r.requeued)

@@ -39,8 +39,8 @@ use std::collections::HashMap;
 
 use serde_json::{Value, json};
 
-use super::stats::{GeoSummary, geometric_mean, linear_fit, log_summary, one_sample_t, pearson};
-use super::{Cell, Rows, Table, num, opt, text};
+use crate::analysis::stats::{GeoSummary, geometric_mean, linear_fit, log_summary, one_sample_t, pearson};
+use crate::analysis::{Cell, Rows, Table, num, opt, text};
 use crate::problem::Problem;
 
 /// One stimulus's normalized geometric mean.

@@ -351,7 +351,7 @@ pub fn claims(dir: &Path, two_mm_ids: &[f64]) -> Result<String, Problem> {
 /// The IDs of a Fitts protocol's narrowest targets (seed 002's hardest
 /// tasks); `None` for another kind of study.
 #[must_use]
-pub fn narrowest_ids(protocol: &crate::protocol::Protocol) -> Option<Vec<f64>> {
+pub fn narrowest_ids(protocol: &crate::kinds::Protocol) -> Option<Vec<f64>> {
     let crate::kinds::Design::Fitts(design) = &protocol.design else {
         return None;
     };

@@ -10,8 +10,8 @@ use std::collections::BTreeMap;
 
 use serde_json::{Value, json};
 
-use super::stats::binomial_two_sided;
-use super::{Rows, Table, num, opt, text};
+use crate::analysis::stats::binomial_two_sided;
+use crate::analysis::{Rows, Table, num, opt, text};
 use crate::problem::Problem;
 
 /// The paired-comparison results.

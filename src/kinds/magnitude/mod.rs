@@ -7,20 +7,20 @@
 //! type a number.
 
 use std::collections::VecDeque;
-use std::path::Path;
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use super::{AnalysisEntry, Block, Design, Exploration, LiveTrial, Next, StudyKind};
-use crate::friction::Validate;
-use crate::analysis::{Section, report};
-use crate::friction::{ModelParams, NakanoParams};
+use crate::analysis::{AnalysisEntry, KindAnalysis, Section, designs_of};
+use crate::friction::{ModelParams, NakanoParams, Validate};
 use crate::protocol::check::Checks;
 use crate::protocol::engine::{Action, Answer, Input, Question, Screen};
+use crate::protocol::kind::{Block, Exploration, Holds, Kinds, LiveTrial, Next, StudyKind};
 use crate::protocol::load::Walk;
-use crate::results::ResultsDir;
+
+pub mod analysis;
+pub mod report;
 
 /// The magnitude-estimation kind.
 #[derive(Debug)]
@@ -127,15 +127,12 @@ pub fn parse_magnitude(text: &str) -> Result<f64, String> {
 }
 
 /// Display order for the analysis: the protocol's set order, from the
-/// first session log header in `folder` that has one; empty if none.
-fn display_order(folder: &Path) -> Vec<String> {
-    ResultsDir::new(folder)
-        .headers()
-        .into_iter()
-        .find_map(|h| match h.protocol.design {
-            Design::MagnitudeEstimation(d) => Some(d.sets.into_iter().map(|s| s.display).collect()),
-            _ => None,
-        })
+/// first magnitude-estimation design among the folder's sessions'; empty
+/// if none.
+fn display_order<K: Holds<Magnitude>>(designs: &[K::Design]) -> Vec<String> {
+    designs_of::<Magnitude, K>(designs)
+        .next()
+        .map(|d| d.sets.iter().map(|s| s.display.clone()).collect())
         .unwrap_or_default()
 }
 
@@ -153,22 +150,6 @@ impl StudyKind for Magnitude {
         "magnitude",
         "response_time_s",
     ];
-
-    const ANALYSIS: Option<AnalysisEntry> = Some(AnalysisEntry {
-        marker: "display",
-        unread: &["response_time_s"],
-        optional: &[],
-        counts_aborted: false,
-        run: |rows, folder| {
-            let m = crate::analysis::magnitude::analyze(rows, &display_order(folder))?;
-            Ok(Section {
-                html: report::magnitude_section(&m),
-                summary: m.summary,
-                notes: m.notes,
-                tables: m.tables,
-            })
-        },
-    });
 
     fn read(w: &mut Walk, v: &Value, path: &str) -> Option<MagnitudeDesign> {
         let m = w.object(v, path, &["kind", "exploration_s", "sets"])?;
@@ -249,7 +230,11 @@ impl StudyKind for Magnitude {
 
     /// Renders the stimulus's model and shows the exploration screen until
     /// `now + exploration_s`.
-    fn start(trial: &MagnitudeTrial, now: f64, out: &mut VecDeque<Action>) -> Explore {
+    fn start<K: Kinds>(
+        trial: &MagnitudeTrial,
+        now: f64,
+        out: &mut VecDeque<Action<K>>,
+    ) -> Explore {
         let until = now + trial.exploration_s;
         out.push_back(Action::Render(Some(trial.model.clone())));
         out.push_back(Action::Show(Screen::Explore { until_s: until }));
@@ -292,11 +277,16 @@ impl LiveTrial for Explore {
         self.time.timeout()
     }
 
-    fn on_timeout(&mut self, _now: f64, out: &mut VecDeque<Action>) -> Next {
+    fn on_timeout<K: Kinds>(&mut self, _now: f64, out: &mut VecDeque<Action<K>>) -> Next {
         self.time.expire(Question::Magnitude, out)
     }
 
-    fn on_input(&mut self, _now: f64, input: Input, out: &mut VecDeque<Action>) -> Next {
+    fn on_input<K: Kinds>(
+        &mut self,
+        _now: f64,
+        input: Input,
+        out: &mut VecDeque<Action<K>>,
+    ) -> Next {
         let Input::Answer(Answer::Magnitude(text)) = input else {
             return Next::Stay;
         };
@@ -322,5 +312,25 @@ impl LiveTrial for Explore {
             magnitude: self.magnitude,
             response_time_s: self.magnitude.map(|_| now - started),
         }
+    }
+}
+
+impl KindAnalysis for Magnitude {
+    fn analysis<K: Holds<Self>>() -> Option<AnalysisEntry<K>> {
+        Some(AnalysisEntry {
+            marker: "display",
+            unread: &["response_time_s"],
+            optional: &[],
+            counts_aborted: false,
+            run: |rows, _, designs| {
+                let m = analysis::analyze(rows, &display_order::<K>(designs))?;
+                Ok(Section {
+                    html: report::magnitude_section(&m),
+                    summary: m.summary,
+                    notes: m.notes,
+                    tables: m.tables,
+                })
+            },
+        })
     }
 }

@@ -25,7 +25,7 @@
 //! - Regression: OLS of MT on ID over every test of the condition.
 //! - Throughput: each test's ISO 9241-9 effective throughput, its endpoint
 //!   spread from every click, hits and misses
-//!   ([`super::stats::effective_throughput`]; from the hits alone for data
+//!   ([`crate::analysis::stats::effective_throughput`]; from the hits alone for data
 //!   files written before clicks were logged),
 //!   averaged per condition: the mean of each participant's sequences,
 //!   then the mean of participants.
@@ -34,8 +34,8 @@ use std::collections::BTreeMap;
 
 use serde_json::{Value, json};
 
-use super::stats::{binomial_two_sided, effective_throughput, linear_fit, mean};
-use super::{Cell, Rows, Table, num, opt, text};
+use crate::analysis::stats::{binomial_two_sided, effective_throughput, linear_fit, mean};
+use crate::analysis::{Cell, Rows, Table, num, opt, text};
 use crate::problem::Problem;
 
 /// One completed test.
@@ -178,7 +178,7 @@ fn key(x: f64) -> u64 {
 }
 
 /// Per condition: mean MT per movement at each ID, and the OLS fit.
-pub type MtById = (String, Vec<(f64, f64)>, Option<super::stats::Fit>);
+pub type MtById = (String, Vec<(f64, f64)>, Option<crate::analysis::stats::Fit>);
 
 fn columns(names: &[&str]) -> Vec<String> {
     names.iter().map(|s| (*s).to_owned()).collect()

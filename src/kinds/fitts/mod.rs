@@ -17,12 +17,15 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use super::{AnalysisEntry, Block, LiveTrial, Next, StudyKind};
-use crate::analysis::{Section, report};
+use crate::analysis::{AnalysisEntry, KindAnalysis, Section};
 use crate::friction::ModelParams;
 use crate::protocol::check::Checks;
 use crate::protocol::engine::{Action, Input, Screen};
+use crate::protocol::kind::{Block, Holds, Kinds, LiveTrial, Next, StudyKind};
 use crate::protocol::load::{Walk, join};
+
+pub mod analysis;
+pub mod report;
 
 /// The Fitts kind.
 #[derive(Debug)]
@@ -236,30 +239,6 @@ impl StudyKind for Fitts {
         "click_hit",
     ];
 
-    const ANALYSIS: Option<AnalysisEntry> = Some(AnalysisEntry {
-        marker: "id_bits",
-        unread: &[
-            "cursor_m",
-            "effective_width_m",
-            "miss_x_m",
-            "click_times_s",
-            "click_x_m",
-            "click_target_x_m",
-            "click_hit",
-        ],
-        optional: &["click_times_s", "click_x_m", "click_target_x_m", "click_hit"],
-        counts_aborted: true,
-        run: |rows, _| {
-            let f = crate::analysis::fitts::analyze(rows)?;
-            Ok(Section {
-                html: report::fitts_section(&f),
-                summary: f.summary,
-                notes: f.notes,
-                tables: f.tables,
-            })
-        },
-    });
-
     fn read(w: &mut Walk, v: &Value, path: &str) -> Option<FittsDesign> {
         let keys = [
             "kind",
@@ -430,7 +409,7 @@ impl StudyKind for Fitts {
         t.model.loop_rate_hz()
     }
 
-    fn start(trial: &FittsTrial, now: f64, out: &mut VecDeque<Action>) -> Tapping {
+    fn start<K: Kinds>(trial: &FittsTrial, now: f64, out: &mut VecDeque<Action<K>>) -> Tapping {
         Tapping::begin(trial, now, out)
     }
 
@@ -480,7 +459,7 @@ pub struct Tapping {
 impl Tapping {
     /// Sets the condition's physical friction, renders its model and lights
     /// the target at `-A/2`.
-    fn begin(trial: &FittsTrial, now: f64, out: &mut VecDeque<Action>) -> Self {
+    fn begin<K: Kinds>(trial: &FittsTrial, now: f64, out: &mut VecDeque<Action<K>>) -> Self {
         let a = trial.amplitude_m;
         let t = Tapping {
             trial: trial.clone(),
@@ -498,7 +477,7 @@ impl Tapping {
         t
     }
 
-    fn screen(&self, missed: bool) -> Action {
+    fn screen<K: Kinds>(&self, missed: bool) -> Action<K> {
         Action::Show(Screen::Fitts {
             lit_m: self.centres[self.lit],
             other_m: self.centres[1 - self.lit],
@@ -509,7 +488,7 @@ impl Tapping {
         })
     }
 
-    fn click(&mut self, now: f64, x: f64, out: &mut VecDeque<Action>) -> Next {
+    fn click<K: Kinds>(&mut self, now: f64, x: f64, out: &mut VecDeque<Action<K>>) -> Next {
         let half = self.trial.effective_width_m / 2.0;
         let centre = self.centres[self.lit];
         let distance = (x - centre).abs();
@@ -536,11 +515,16 @@ impl LiveTrial for Tapping {
         Some(self.deadline)
     }
 
-    fn on_timeout(&mut self, _now: f64, _out: &mut VecDeque<Action>) -> Next {
+    fn on_timeout<K: Kinds>(&mut self, _now: f64, _out: &mut VecDeque<Action<K>>) -> Next {
         Next::Finish(Some("timeout".into()))
     }
 
-    fn on_input(&mut self, now: f64, input: Input, out: &mut VecDeque<Action>) -> Next {
+    fn on_input<K: Kinds>(
+        &mut self,
+        now: f64,
+        input: Input,
+        out: &mut VecDeque<Action<K>>,
+    ) -> Next {
         match input {
             Input::Click { x_m } if x_m.is_finite() => self.click(now, x_m, out),
             _ => Next::Stay,
@@ -588,5 +572,33 @@ impl LiveTrial for Tapping {
             click_target_x_m: self.target.clone(),
             click_hit: self.hit.clone(),
         }
+    }
+}
+
+impl KindAnalysis for Fitts {
+    fn analysis<K: Holds<Self>>() -> Option<AnalysisEntry<K>> {
+        Some(AnalysisEntry {
+            marker: "id_bits",
+            unread: &[
+                "cursor_m",
+                "effective_width_m",
+                "miss_x_m",
+                "click_times_s",
+                "click_x_m",
+                "click_target_x_m",
+                "click_hit",
+            ],
+            optional: &["click_times_s", "click_x_m", "click_target_x_m", "click_hit"],
+            counts_aborted: true,
+            run: |rows, _, _| {
+                let f = analysis::analyze(rows)?;
+                Ok(Section {
+                    html: report::fitts_section(&f),
+                    summary: f.summary,
+                    notes: f.notes,
+                    tables: f.tables,
+                })
+            },
+        })
     }
 }

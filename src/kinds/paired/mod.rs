@@ -14,12 +14,15 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use super::{AnalysisEntry, Block, Exploration, LiveTrial, Next, StudyKind};
-use crate::analysis::{Section, report};
+use crate::analysis::{AnalysisEntry, KindAnalysis, Section};
 use crate::protocol::Condition;
 use crate::protocol::check::Checks;
 use crate::protocol::engine::{Action, Answer, Choice, Input, Question, Screen};
+use crate::protocol::kind::{Block, Exploration, Holds, Kinds, LiveTrial, Next, StudyKind};
 use crate::protocol::load::Walk;
+
+pub mod analysis;
+pub mod report;
 
 /// The paired-comparison kind.
 #[derive(Debug)]
@@ -74,22 +77,6 @@ impl StudyKind for Paired {
     type Data = PairedData;
 
     const COLUMNS: &'static [&'static str] = &["first", "second", "choice", "chosen"];
-
-    const ANALYSIS: Option<AnalysisEntry> = Some(AnalysisEntry {
-        marker: "choice",
-        unread: &[],
-        optional: &[],
-        counts_aborted: false,
-        run: |rows, _| {
-            let p = crate::analysis::paired::analyze(rows)?;
-            Ok(Section {
-                html: report::paired_section(&p),
-                summary: p.summary,
-                notes: p.notes,
-                tables: p.tables,
-            })
-        },
-    });
 
     fn read(w: &mut Walk, v: &Value, path: &str) -> Option<PairedDesign> {
         let keys = [
@@ -175,6 +162,16 @@ impl StudyKind for Paired {
         }
     }
 
+    /// Its conditions: a participant may be set to prefer one of them.
+    fn preferable(d: &PairedDesign) -> Option<Vec<&str>> {
+        Some(d.conditions.iter().map(|c| c.id.as_str()).collect())
+    }
+
+    /// The pair, in presentation order.
+    fn preferable_stimuli(t: &PairedTrial) -> Vec<&str> {
+        vec![t.first.id.as_str(), t.second.id.as_str()]
+    }
+
     fn reference(d: &PairedDesign) -> Option<(&str, f64)> {
         (d.reference_s > 0.0).then_some((d.reference_instructions.as_str(), d.reference_s))
     }
@@ -188,7 +185,7 @@ impl StudyKind for Paired {
 
     /// Renders the first stimulus and shows the comparison screen until
     /// `now + 2 exploration_s`.
-    fn start(trial: &PairedTrial, now: f64, out: &mut VecDeque<Action>) -> Compare {
+    fn start<K: Kinds>(trial: &PairedTrial, now: f64, out: &mut VecDeque<Action<K>>) -> Compare {
         Compare::start(trial, None, now, out)
     }
 
@@ -217,11 +214,11 @@ impl Compare {
     /// Renders the first stimulus and shows the two stimuli until `now + 2
     /// exploration_s`; `forced`: a two-interval forced choice asking this
     /// question, else the paired comparison's.
-    pub fn start(
+    pub fn start<K: Kinds>(
         trial: &PairedTrial,
         forced: Option<String>,
         now: f64,
-        out: &mut VecDeque<Action>,
+        out: &mut VecDeque<Action<K>>,
     ) -> Self {
         let PairedTrial { first, second, .. } = trial;
         let until = now + 2.0 * trial.exploration_s;
@@ -247,7 +244,7 @@ impl LiveTrial for Compare {
         self.time.timeout()
     }
 
-    fn on_timeout(&mut self, _now: f64, out: &mut VecDeque<Action>) -> Next {
+    fn on_timeout<K: Kinds>(&mut self, _now: f64, out: &mut VecDeque<Action<K>>) -> Next {
         let question = if self.forced.is_some() {
             Question::ForcedChoice
         } else {
@@ -256,7 +253,12 @@ impl LiveTrial for Compare {
         self.time.expire(question, out)
     }
 
-    fn on_input(&mut self, now: f64, input: Input, out: &mut VecDeque<Action>) -> Next {
+    fn on_input<K: Kinds>(
+        &mut self,
+        now: f64,
+        input: Input,
+        out: &mut VecDeque<Action<K>>,
+    ) -> Next {
         match input {
             Input::Switch(i) if i < 2 && now < self.time.until => {
                 out.push_back(Action::Render(Some(self.conditions[i].model.clone())));
@@ -294,5 +296,25 @@ impl LiveTrial for Compare {
                 Choice::NoDifference => "no_difference".to_owned(),
             }),
         }
+    }
+}
+
+impl KindAnalysis for Paired {
+    fn analysis<K: Holds<Self>>() -> Option<AnalysisEntry<K>> {
+        Some(AnalysisEntry {
+            marker: "choice",
+            unread: &[],
+            optional: &[],
+            counts_aborted: false,
+            run: |rows, _, _| {
+                let p = analysis::analyze(rows)?;
+                Ok(Section {
+                    html: report::paired_section(&p),
+                    summary: p.summary,
+                    notes: p.notes,
+                    tables: p.tables,
+                })
+            },
+        })
     }
 }

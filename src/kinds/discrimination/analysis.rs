@@ -40,12 +40,10 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde_json::{Value, json};
 
-use super::{Rows, Table, num, opt, text};
-use crate::kinds::Design;
-use crate::kinds::discrimination::{Comparison, DiscriminationDesign};
+use crate::analysis::{Rows, Table, num, opt, text};
+use super::{Comparison, DiscriminationDesign};
 use crate::participant::id_hash;
 use crate::problem::Problem;
-use crate::results::ResultsDir;
 
 /// One track's fit.
 #[derive(Debug, Clone)]
@@ -89,18 +87,6 @@ pub struct Discrimination {
     pub tracks: Vec<TrackFit>,
     /// The design the fits follow.
     pub design: DiscriminationDesign,
-}
-
-/// The discrimination design of the first session log in `folder` that has
-/// one.
-fn design_of(folder: &Path) -> Option<DiscriminationDesign> {
-    ResultsDir::new(folder)
-        .headers()
-        .into_iter()
-        .find_map(|h| match h.protocol.design {
-            Design::Discrimination(d) => Some(d),
-            _ => None,
-        })
 }
 
 /// Fits one track.
@@ -165,13 +151,18 @@ pub fn fit_track(
     }
 }
 
-/// Analyses the discrimination rows of `folder`.
+/// Analyses the discrimination rows of `folder`, whose fits follow
+/// `design` (the first of the folder's session logs that has one).
 ///
 /// # Errors
 /// No session log in the folder holds the discrimination protocol, or a
 /// cell is not a number (`level`, `difference`) or 0/1 (`correct`).
-pub fn analyze(rows: &Rows, folder: &Path) -> Result<Discrimination, Problem> {
-    let design = design_of(folder).ok_or_else(|| {
+pub fn analyze(
+    rows: &Rows,
+    folder: &Path,
+    design: Option<&DiscriminationDesign>,
+) -> Result<Discrimination, Problem> {
+    let design = design.cloned().ok_or_else(|| {
         Problem::new(
             folder.display().to_string(),
             "no session log holds the discrimination protocol, which the fits need (its criterion, shape and lapse bound)",
@@ -378,7 +369,7 @@ fn group_summary(design: &DiscriminationDesign, tracks: &[TrackFit]) -> Vec<Valu
             });
             #[expect(clippy::cast_precision_loss, reason = "participant counts")]
             let jnd_mean = (!jnds.is_empty()).then(|| jnds.iter().sum::<f64>() / jnds.len() as f64);
-            let ci = super::stats::one_sample_t(&webers).map(|t| [t.ci_low, t.ci_high]);
+            let ci = crate::analysis::stats::one_sample_t(&webers).map(|t| [t.ci_low, t.ci_high]);
             json!({
                 "level": level,
                 "participants": webers.len(),

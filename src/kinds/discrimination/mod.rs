@@ -40,15 +40,18 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use super::paired::{Compare, Paired, PairedData, PairedTrial};
-use super::{AnalysisEntry, LiveTrial, Next, StudyKind, TrialData};
-use crate::analysis::Section;
+use crate::analysis::{AnalysisEntry, KindAnalysis, Section, designs_of};
 use crate::friction::ModelParams;
+use crate::kinds::paired::{Compare, Paired, PairedData, PairedTrial};
 use crate::protocol::check::Checks;
 use crate::protocol::engine::{Action, Choice, Input, Status, TrialRecord, TrialSource};
+use crate::protocol::kind::{Holds, Kinds, LiveTrial, Next, StudyKind};
 use crate::protocol::load::Walk;
 use crate::protocol::plan::PlannedTrial;
 use crate::protocol::{Condition, Protocol};
+
+pub mod analysis;
+pub mod report;
 
 /// The discrimination kind.
 #[derive(Debug)]
@@ -433,22 +436,6 @@ impl StudyKind for Discrimination {
         "correct",
     ];
 
-    const ANALYSIS: Option<AnalysisEntry> = Some(AnalysisEntry {
-        marker: "comparison_value",
-        unread: &["first", "second", "choice", "chosen"],
-        optional: &[],
-        counts_aborted: false,
-        run: |rows, folder| {
-            let d = crate::analysis::discrimination::analyze(rows, folder)?;
-            Ok(Section {
-                html: crate::analysis::report::discrimination_section(&d),
-                summary: d.summary,
-                notes: d.notes,
-                tables: d.tables,
-            })
-        },
-    });
-
     fn read(w: &mut Walk, v: &Value, path: &str) -> Option<DiscriminationDesign> {
         let keys = [
             "kind",
@@ -576,12 +563,12 @@ impl StudyKind for Discrimination {
         }
     }
 
-    fn source(
-        _protocol: &Protocol,
+    fn source<K: Holds<Self>>(
+        _protocol: &Protocol<K>,
         design: &DiscriminationDesign,
         seed: u64,
         _participant_index: u32,
-    ) -> Arc<dyn TrialSource> {
+    ) -> Arc<dyn TrialSource<K>> {
         Arc::new(Source {
             design: design.clone(),
             seed,
@@ -592,7 +579,11 @@ impl StudyKind for Discrimination {
         Paired::loop_rate_hz(&t.pair)
     }
 
-    fn start(t: &DiscriminationTrial, now: f64, out: &mut VecDeque<Action>) -> TwoIntervals {
+    fn start<K: Kinds>(
+        t: &DiscriminationTrial,
+        now: f64,
+        out: &mut VecDeque<Action<K>>,
+    ) -> TwoIntervals {
         TwoIntervals {
             compare: Compare::start(&t.pair, Some(t.question.clone()), now, out),
             trial: t.clone(),
@@ -620,11 +611,16 @@ impl LiveTrial for TwoIntervals {
         self.compare.timeout()
     }
 
-    fn on_timeout(&mut self, now: f64, out: &mut VecDeque<Action>) -> Next {
+    fn on_timeout<K: Kinds>(&mut self, now: f64, out: &mut VecDeque<Action<K>>) -> Next {
         self.compare.on_timeout(now, out)
     }
 
-    fn on_input(&mut self, now: f64, input: Input, out: &mut VecDeque<Action>) -> Next {
+    fn on_input<K: Kinds>(
+        &mut self,
+        now: f64,
+        input: Input,
+        out: &mut VecDeque<Action<K>>,
+    ) -> Next {
         self.compare.on_input(now, input, out)
     }
 
@@ -718,7 +714,10 @@ impl TrackMethod {
 /// Every track of `design` after the completed answers of `history`
 /// (re-queued and aborted trials change nothing).
 #[must_use]
-pub fn replay(design: &DiscriminationDesign, history: &[TrialRecord]) -> Vec<TrackMethod> {
+pub fn replay<K: Holds<Discrimination>>(
+    design: &DiscriminationDesign,
+    history: &[TrialRecord<K>],
+) -> Vec<TrackMethod> {
     let mut tracks: Vec<TrackMethod> = design
         .levels
         .iter()
@@ -728,7 +727,7 @@ pub fn replay(design: &DiscriminationDesign, history: &[TrialRecord]) -> Vec<Tra
         .iter()
         .filter(|r| !r.requeued && r.status == Status::Completed)
     {
-        let TrialData::Discrimination(d) = &r.data else {
+        let Some(d) = K::data_of(&r.data) else {
             continue;
         };
         if let (Some(track), Some(correct)) = (tracks.get_mut(d.track), d.correct) {
@@ -752,13 +751,13 @@ pub struct TrackAnswers {
 /// The tracks of a discrimination session's records (none for another
 /// kind's), by track index.
 #[must_use]
-pub fn tracks(history: &[TrialRecord]) -> Vec<TrackAnswers> {
+pub fn tracks<K: Holds<Discrimination>>(history: &[TrialRecord<K>]) -> Vec<TrackAnswers> {
     let mut out: Vec<TrackAnswers> = Vec::new();
     for r in history
         .iter()
         .filter(|r| !r.requeued && r.status == Status::Completed)
     {
-        let TrialData::Discrimination(d) = &r.data else {
+        let Some(d) = K::data_of(&r.data) else {
             continue;
         };
         let Some(correct) = d.correct else {
@@ -794,8 +793,8 @@ fn trial_seed(seed: u64, index: usize) -> u64 {
     z ^ (z >> 31)
 }
 
-impl TrialSource for Source {
-    fn trial(&self, index: usize, history: &[TrialRecord]) -> Option<PlannedTrial> {
+impl<K: Holds<Discrimination>> TrialSource<K> for Source {
+    fn trial(&self, index: usize, history: &[TrialRecord<K>]) -> Option<PlannedTrial<K>> {
         let d = &self.design;
         let tracks = replay(d, history);
         let open: Vec<(usize, f64)> = tracks
@@ -830,7 +829,7 @@ impl TrialSource for Source {
             practice: false,
             repetition: 0,
             seed,
-            spec: super::TrialSpec::Discrimination(DiscriminationTrial {
+            spec: K::wrap_trial(DiscriminationTrial {
                 pair: PairedTrial {
                     first,
                     second,
@@ -852,5 +851,26 @@ impl TrialSource for Source {
 
     fn loop_rate_hz(&self) -> f64 {
         self.design.reference.loop_rate_hz()
+    }
+}
+
+impl KindAnalysis for Discrimination {
+    fn analysis<K: Holds<Self>>() -> Option<AnalysisEntry<K>> {
+        Some(AnalysisEntry {
+            marker: "comparison_value",
+            unread: &["first", "second", "choice", "chosen"],
+            optional: &[],
+            counts_aborted: false,
+            run: |rows, folder, designs| {
+                let design = designs_of::<Self, K>(designs).next();
+                let d = analysis::analyze(rows, folder, design)?;
+                Ok(Section {
+                    html: report::discrimination_section(&d),
+                    summary: d.summary,
+                    notes: d.notes,
+                    tables: d.tables,
+                })
+            },
+        })
     }
 }
