@@ -25,7 +25,7 @@ use serde_json::{Value, json};
 
 use crate::problem::Problem;
 use crate::protocol::kind::{Holds, Kinds, StudyKind};
-use crate::results::{COMMON_COLUMNS, ResultsDir};
+use crate::results::{COMMON_COLUMNS, ReadLog, ResultsDir};
 
 /// One output table: named columns of cells, written as CSV and Parquet.
 #[derive(Debug, Clone, PartialEq)]
@@ -151,17 +151,51 @@ pub struct AnalysisEntry<K: Kinds> {
     /// It also reads the rows that did not complete, to count them
     /// (`Rows::aborted`).
     pub counts_aborted: bool,
-    /// The analysis of the completed, non-practice rows of this kind in
-    /// `folder`, given the designs of the folder's sessions (every kind's,
-    /// in log order) for what the data CSVs do not hold, such as the
-    /// protocol's display order.
+    /// The analysis of the completed, non-practice rows of this kind, with
+    /// its [`Context`].
     pub run: RunAnalysis<K>,
 }
 
-/// A kind's analysis of its rows in a folder, given the designs of the
-/// folder's sessions ([`AnalysisEntry::run`]).
-pub type RunAnalysis<K> =
-    fn(rows: &Rows, folder: &Path, designs: &[<K as Kinds>::Design]) -> Result<Section, Problem>;
+/// A kind's analysis of its rows ([`AnalysisEntry::run`]).
+pub type RunAnalysis<K> = fn(rows: &Rows, context: &Context<'_, K>) -> Result<Section, Problem>;
+
+/// How much of an analysis to make.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Scope {
+    /// Everything `analyze` reports: the summary, the tables, every
+    /// interval, the HTML report.
+    Report,
+    /// The summary's statistics that power planning counts (`power`): a
+    /// kind may leave out what is costly and not counted (the tables, the
+    /// report section, each discrimination track's bootstrap and profile
+    /// intervals). The statistics it gives are those of
+    /// [`Scope::Report`], bit for bit.
+    Counted,
+}
+
+/// What a kind's analysis is given besides its rows.
+#[derive(Debug)]
+pub struct Context<'a, K: Kinds> {
+    /// The results folder (for the place of a problem; a replay in memory
+    /// names what stands in for it).
+    pub folder: &'a Path,
+    /// The designs of the sessions analysed (every kind's, in the order of
+    /// their files), for what the data CSVs do not hold, such as the
+    /// protocol's display order.
+    pub designs: &'a [K::Design],
+    /// How much to make.
+    pub scope: Scope,
+}
+
+impl<K: Kinds> Context<'_, K> {
+    /// A kind's report section, made only for [`Scope::Report`].
+    pub fn report(&self, html: impl FnOnce() -> String) -> String {
+        match self.scope {
+            Scope::Report => html(),
+            Scope::Counted => String::new(),
+        }
+    }
+}
 
 /// A kind's analysis, implemented in its folder beside its
 /// [`StudyKind`].
@@ -588,14 +622,39 @@ pub fn analyze<K: AnalysedKinds>(dir: &Path) -> Result<Analysis, Problem> {
     analyze_with::<K>(dir, Check::AgainstLogs)
 }
 
-/// [`analyze`], the data CSVs checked as `check` says.
+/// [`analyze`], the data CSVs checked as `check` says: [`read`] the
+/// folder's tables, then [`analyze_tables`] them.
 ///
 /// # Errors
 /// Input that cannot be analysed; with [`Check::AgainstLogs`], a CSV
 /// unlike its log, or a damaged log.
 pub fn analyze_with<K: AnalysedKinds>(dir: &Path, check: Check) -> Result<Analysis, Problem> {
+    analyze_tables(&read::<K>(dir, check)?, Scope::Report)
+}
+
+/// What an analysis reads: each kind's rows (completed, non-practice; the
+/// others apart where a kind counts them), the designs of the sessions,
+/// and what reading them noticed. Read from a results folder ([`read`]),
+/// or made from session records in memory ([`Tables::from_logs`]).
+#[derive(Debug)]
+pub struct Tables<K: Kinds> {
+    folder: PathBuf,
+    rows: BTreeMap<&'static str, Rows>,
+    designs: Vec<K::Design>,
+    notes: Vec<String>,
+    checked_against_logs: bool,
+}
+
+/// Reads a results folder's data for analysis: each data CSV held against
+/// its session log first (unless `check` says [`Check::CsvOnly`]), then
+/// the CSVs (polars lazy scan) and the logs' designs.
+///
+/// # Errors
+/// Input that cannot be analysed; with [`Check::AgainstLogs`], a CSV
+/// unlike its log, or a damaged log.
+pub fn read<K: AnalysedKinds>(dir: &Path, check: Check) -> Result<Tables<K>, Problem> {
     let mut notes: Vec<String> = Vec::new();
-    let data = match check {
+    let rows = match check {
         Check::AgainstLogs => {
             let jobs = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
             let verified = crate::results::verify::<K>(dir, jobs)?;
@@ -618,33 +677,187 @@ pub fn analyze_with<K: AnalysedKinds>(dir: &Path, check: Check) -> Result<Analys
             load::<K>(dir)?
         }
     };
-    let mut summary = serde_json::Map::new();
-    let mut tables = Vec::new();
-    let mut sections = Vec::new();
     let designs: Vec<K::Design> = ResultsDir::new(dir)
         .headers::<K>()
         .into_iter()
         .map(|h| h.protocol.design)
         .collect();
+    Ok(Tables {
+        folder: dir.to_owned(),
+        rows,
+        designs,
+        notes,
+        checked_against_logs: check == Check::AgainstLogs,
+    })
+}
+
+impl<K: AnalysedKinds> Tables<K> {
+    /// The tables of sessions held in memory (`logs`: each session's
+    /// header and records, as a results folder's logs would hold them),
+    /// for an analysis that writes and reads no file (power planning). The
+    /// rows are the cells the data CSVs would hold, in the order of their
+    /// files, so [`analyze_tables`] gives what `analyze` gives for the
+    /// same sessions in a folder. `folder` names them in the summary.
+    ///
+    /// # Errors
+    /// A session of a kind without an analysis, or a table polars cannot
+    /// make.
+    pub fn from_logs(folder: &Path, logs: &[&ReadLog<K>]) -> Result<Tables<K>, Problem> {
+        let dir = ResultsDir::new(folder);
+        let mut ordered: Vec<(PathBuf, &ReadLog<K>)> = logs
+            .iter()
+            .map(|l| {
+                let h = &l.header;
+                (dir.files(&h.protocol_id, &h.participant, h.session).csv, *l)
+            })
+            .collect();
+        ordered.sort_by(|a, b| a.0.cmp(&b.0));
+        let analyses = K::analyses();
+        let mut by_kind: BTreeMap<&'static str, (AnalysisEntry<K>, Vec<&ReadLog<K>>)> =
+            BTreeMap::new();
+        for (csv, log) in &ordered {
+            let kind = log.header.protocol.kind();
+            let Some((name, Some(entry))) = analyses.iter().find(|(k, _)| *k == kind) else {
+                return Err(Problem::new(
+                    csv.display().to_string(),
+                    format!("no analysis for the kind of session '{kind}'"),
+                ));
+            };
+            by_kind
+                .entry(name)
+                .or_insert((*entry, Vec::new()))
+                .1
+                .push(log);
+        }
+        let mut rows = BTreeMap::new();
+        for (kind, (entry, logs)) in by_kind {
+            let mut columns = needed(kind, &entry);
+            columns.extend(entry.optional);
+            rows.insert(
+                kind,
+                rows_of(folder, kind, &columns, &logs, entry.counts_aborted)?,
+            );
+        }
+        Ok(Tables {
+            folder: folder.to_owned(),
+            rows,
+            designs: ordered
+                .iter()
+                .map(|(_, l)| l.header.protocol.design.clone())
+                .collect(),
+            notes: Vec::new(),
+            checked_against_logs: true,
+        })
+    }
+}
+
+/// The non-practice rows of `logs` (all of kind `kind`), with `columns`,
+/// as a CSV scan of their files would give them: the completed ones, and
+/// with `keep_aborted` the others apart.
+fn rows_of<K: Kinds>(
+    folder: &Path,
+    kind: &str,
+    columns: &[&str],
+    logs: &[&ReadLog<K>],
+    keep_aborted: bool,
+) -> Result<Rows, Problem> {
+    let all = crate::results::data_columns::<K>(kind);
+    let at: Vec<usize> = columns
+        .iter()
+        .filter_map(|c| all.iter().position(|a| a == c))
+        .collect();
+    let col = |name: &str| all.iter().position(|a| *a == name);
+    let (status, practice) = (col("status"), col("practice"));
+    let mut done: Vec<Vec<Option<String>>> = vec![Vec::new(); at.len()];
+    let mut other: Vec<Vec<Option<String>>> = vec![Vec::new(); at.len()];
+    for log in logs {
+        for r in &log.trials {
+            let cells = crate::results::data_cells(&log.header, r);
+            let cell = |i: Option<usize>| i.and_then(|i| cells.get(i)).map(String::as_str);
+            if cell(practice) != Some("false") {
+                continue;
+            }
+            let target = if cell(status) == Some("completed") {
+                &mut done
+            } else if keep_aborted {
+                &mut other
+            } else {
+                continue;
+            };
+            for (j, &i) in at.iter().enumerate() {
+                target[j].push(cells.get(i).and_then(|c| unquote(c)));
+            }
+        }
+    }
+    let fail = |e: PolarsError| Problem::new(folder.display().to_string(), e.to_string());
+    let frame = |cols: Vec<Vec<Option<String>>>| -> Result<DataFrame, Problem> {
+        let columns: Vec<Column> = columns
+            .iter()
+            .zip(cols)
+            .map(|(name, v)| Column::new((*name).into(), v))
+            .collect();
+        DataFrame::new_infer_height(columns).map_err(fail)
+    };
+    Ok(Rows {
+        frame: frame(done)?,
+        aborted: if keep_aborted {
+            frame(other)?
+        } else {
+            DataFrame::empty()
+        },
+        files: Vec::new(),
+    })
+}
+
+/// A CSV cell's value as a CSV reader gives it: unquoted, and missing
+/// when empty.
+fn unquote(cell: &str) -> Option<String> {
+    if cell.is_empty() {
+        None
+    } else if cell.len() >= 2 && cell.starts_with('"') && cell.ends_with('"') {
+        Some(cell[1..cell.len() - 1].replace("\"\"", "\""))
+    } else {
+        Some(cell.to_owned())
+    }
+}
+
+/// Runs each kind's analysis on its tables, in registry order; with
+/// [`Scope::Counted`], only the statistics (no report page).
+///
+/// # Errors
+/// Input that cannot be analysed.
+pub fn analyze_tables<K: AnalysedKinds>(t: &Tables<K>, scope: Scope) -> Result<Analysis, Problem> {
+    let mut notes = t.notes.clone();
+    let mut summary = serde_json::Map::new();
+    let mut tables = Vec::new();
+    let mut sections = Vec::new();
+    let context = Context {
+        folder: &t.folder,
+        designs: &t.designs,
+        scope,
+    };
     for (kind, entry) in K::analyses() {
-        let (Some(entry), Some(rows)) = (entry, data.get(kind)) else {
+        let (Some(entry), Some(rows)) = (entry, t.rows.get(kind)) else {
             continue;
         };
-        let section = (entry.run)(rows, dir, &designs)?;
+        let section = (entry.run)(rows, &context)?;
         summary.insert(kind.into(), section.summary);
         notes.extend(section.notes);
         sections.push(section.html);
         tables.extend(section.tables);
     }
-    let rows: BTreeMap<&str, usize> = data.iter().map(|(k, v)| (*k, v.len())).collect();
-    let mut inputs = json!({"folder": folder_name(dir), "analysed_rows": rows, "rule": "completed, non-practice trials"});
-    if check == Check::CsvOnly {
+    let rows: BTreeMap<&str, usize> = t.rows.iter().map(|(k, v)| (*k, v.len())).collect();
+    let mut inputs = json!({"folder": folder_name(&t.folder), "analysed_rows": rows, "rule": "completed, non-practice trials"});
+    if !t.checked_against_logs {
         inputs["checked_against_logs"] = json!(false);
     }
     summary.insert("inputs".into(), inputs);
     summary.insert("notes".into(), json!(notes));
     let summary = Value::Object(summary);
-    let html = report::page(&folder_name(dir), &summary, &sections, &notes);
+    let html = match scope {
+        Scope::Report => report::page(&folder_name(&t.folder), &summary, &sections, &notes),
+        Scope::Counted => String::new(),
+    };
     Ok(Analysis {
         summary,
         tables,

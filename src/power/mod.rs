@@ -31,7 +31,10 @@
 //! power reaches `target_power`.
 //!
 //! # Shards ([`run_shard`], [`merge`])
-//! Shard `K` of `N` runs the studies whose index is `K` modulo `N`. Each
+//! Shard `K` of `N` runs the studies whose study number is `K` modulo `N`,
+//! at every size (a study number's sizes share their participants: its
+//! sessions run once, in memory, and each size analyses its first ones).
+//! Each
 //! finished study is appended to `power-shard-K-of-N.partial.jsonl` (fsync'd)
 //! before the next is counted, so a killed shard rerun continues where it
 //! stopped; when all are done the shard's studies, in index order, go to
@@ -51,11 +54,11 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
-use crate::kinds::Protocol;
+use crate::analysis::{Scope, Tables, analyze_tables};
+use crate::kinds::{Protocol, ReadLog, Registry};
 use crate::participant::Population;
 use crate::problem::Problem;
-use crate::results::ResultsDir;
-use crate::session::{SessionError, Simulation, participant_seed, simulate_participants};
+use crate::session::{SessionError, Simulation, participant_seed, simulate_in_memory};
 
 pub use report::html;
 
@@ -274,13 +277,20 @@ impl Shard {
         dir.join(format!(".{}.lock", self.name()))
     }
 
-    fn work(self, dir: &Path) -> PathBuf {
-        dir.join(format!(".{}.work", self.name()))
-    }
-
-    /// The study indices of this shard.
-    fn indices(self, total: u64) -> impl Iterator<Item = u64> {
-        (u64::from(self.k)..total).step_by(self.n.max(1) as usize)
+    /// The study indices of this shard, ascending: every sample size of
+    /// the study numbers `s` with `s` = K modulo N (a study number's
+    /// sizes share their participants, so one shard replays them together).
+    fn indices(self, plan: &PlanHeader) -> Vec<u64> {
+        let per = u64::from(plan.studies);
+        let mut out: Vec<u64> = (0..plan.participants.len() as u64)
+            .flat_map(|size| {
+                (u64::from(self.k)..per)
+                    .step_by(self.n.max(1) as usize)
+                    .map(move |s| size * per + s)
+            })
+            .collect();
+        out.sort_unstable();
+        out
     }
 }
 
@@ -378,45 +388,47 @@ pub fn outcomes(summary: &Value) -> Outcomes {
     out
 }
 
-/// Replays study `index` of the plan in `work` (removed after) and reads
-/// its outcomes.
-fn run_study(plan: &Plan<'_>, index: u64, work: &Path) -> Result<StudyRecord, PowerError> {
-    let (n, s) = plan.header.study(index);
-    let dir = work.join(format!("study-{index}"));
-    remove_dir(&dir)?;
-    simulate_participants(
-        &ResultsDir::new(&dir),
-        &Simulation {
-            protocol: plan.protocol,
-            protocol_bytes: plan.protocol_bytes,
+/// Replays the studies `indices` of the plan, all of study number `s` (a
+/// study at each size asked for), and reads their outcomes. The sessions
+/// run in memory, once: participant `j` of study `s` is the same at every
+/// size, so the largest size's sessions hold each smaller size's as their
+/// first ones. Each study's tables are analysed as `analyze` would a
+/// folder of its sessions, for the statistics power counts
+/// ([`Scope::Counted`](crate::analysis::Scope::Counted)).
+fn run_studies(plan: &Plan<'_>, s: u32, indices: &[u64]) -> Result<Vec<StudyRecord>, PowerError> {
+    let sizes: Vec<u32> = indices.iter().map(|&i| plan.header.study(i).0).collect();
+    let largest = sizes.iter().copied().max().unwrap_or(0);
+    let sim = Simulation {
+        protocol: plan.protocol,
+        protocol_bytes: plan.protocol_bytes,
+        participants: largest,
+        seed: study_seed(plan.header.seed, s),
+        pace: None,
+        streams: false,
+        population: plan.header.population.as_ref(),
+        jobs: 1,
+        stop: None,
+    };
+    let logs = (0..largest)
+        .map(|i| simulate_in_memory(&sim, i))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut out = Vec::with_capacity(indices.len());
+    for (&index, &n) in indices.iter().zip(&sizes) {
+        let study: Vec<&ReadLog> = logs.iter().take(n as usize).collect();
+        let folder = PathBuf::from(format!("study-{index}"));
+        let analysis = Tables::from_logs(&folder, &study)
+            .and_then(|t| analyze_tables::<Registry>(&t, Scope::Counted))
+            .map_err(|e| PowerError::Input(vec![e]))?;
+        let Outcomes { p, ci_width } = outcomes(&analysis.summary);
+        out.push(StudyRecord {
+            index,
             participants: n,
-            seed: study_seed(plan.header.seed, s),
-            pace: None,
-            streams: false,
-            population: plan.header.population.as_ref(),
-            jobs: 1,
-            stop: None,
-        },
-        &|_| {},
-    )?;
-    let analysis = crate::analysis::analyze::<crate::kinds::Registry>(&dir)
-        .map_err(|e| PowerError::Input(vec![e]))?;
-    remove_dir(&dir)?;
-    let Outcomes { p, ci_width } = outcomes(&analysis.summary);
-    Ok(StudyRecord {
-        index,
-        participants: n,
-        study: s,
-        p,
-        ci_width,
-    })
-}
-
-fn remove_dir(dir: &Path) -> Result<(), PowerError> {
-    match std::fs::remove_dir_all(dir) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(io(dir)(e)),
-        _ => Ok(()),
+            study: s,
+            p,
+            ci_width,
+        });
     }
+    Ok(out)
 }
 
 /// The first line of a shard's journal, and the head of its output.
@@ -545,7 +557,7 @@ pub fn run_shard(
         shard: [shard.k, shard.n],
     };
     let file = shard.file(out);
-    let indices: Vec<u64> = shard.indices(plan.header.total()).collect();
+    let indices: Vec<u64> = shard.indices(&plan.header);
     std::fs::create_dir_all(out).map_err(io(out))?;
     let lock = shard.lock(out);
     let _held = crate::results::lock_file(&lock)
@@ -580,12 +592,14 @@ pub fn run_shard(
     let journal = shard.journal(out);
     let mut found = open_journal(&journal, &head)?;
     let resumed = found.len();
-    let todo: Vec<u64> = indices
-        .iter()
-        .copied()
-        .filter(|i| !found.contains_key(i))
-        .collect();
-    let work = shard.work(out);
+    // The studies left, by study number: each number's sizes replay
+    // together.
+    let mut todo: BTreeMap<u32, Vec<u64>> = BTreeMap::new();
+    for &i in indices.iter().filter(|i| !found.contains_key(i)) {
+        todo.entry(plan.header.study(i).1).or_default().push(i);
+    }
+    let todo: Vec<(u32, Vec<u64>)> = todo.into_iter().collect();
+    let ran = todo.iter().map(|(_, i)| i.len()).sum();
     let journal_file = std::sync::Mutex::new(
         std::fs::OpenOptions::new()
             .append(true)
@@ -594,19 +608,23 @@ pub fn run_shard(
     );
     let done = std::sync::atomic::AtomicUsize::new(resumed);
     progress(resumed, indices.len());
-    for record in crate::parallel::run(&todo, jobs, |&index| {
-        let record = run_study(plan, index, &work)?;
+    for records in crate::parallel::run(&todo, jobs, |(s, todo)| {
+        let records = run_studies(plan, *s, todo)?;
         let mut f = journal_file
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        append_line(&mut f, &journal, &record)?;
+        for record in &records {
+            append_line(&mut f, &journal, record)?;
+        }
         drop(f);
-        let count = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        let count =
+            done.fetch_add(records.len(), std::sync::atomic::Ordering::Relaxed) + records.len();
         progress(count, indices.len());
-        Ok::<_, PowerError>(record)
+        Ok::<_, PowerError>(records)
     }) {
-        let record = record?;
-        found.insert(record.index, record);
+        for record in records? {
+            found.insert(record.index, record);
+        }
     }
     let studies: Vec<StudyRecord> = found.into_values().collect();
     if studies.iter().map(|s| s.index).ne(indices.iter().copied()) {
@@ -624,10 +642,9 @@ pub fn run_shard(
     let bytes = pretty(&shard_file, &file)?;
     crate::results::replace_file(&file, &bytes, true).map_err(io(&file))?;
     std::fs::remove_file(&journal).map_err(io(&journal))?;
-    remove_dir(&work)?;
     Ok(ShardOutcome {
         file,
-        ran: todo.len(),
+        ran,
         resumed,
         studies: shard_file.studies,
     })
@@ -753,7 +770,7 @@ pub fn merge(dirs: &[PathBuf]) -> Result<(PlanHeader, Vec<StudyRecord>), PowerEr
                 k: s.shard[0],
                 n: count,
             }
-            .indices(plan.total());
+            .indices(&plan);
             if s.studies.iter().map(|r| r.index).ne(want) {
                 problems.push(Problem::new(
                     format!("{place}: $.studies"),

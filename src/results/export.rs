@@ -5,8 +5,9 @@ use std::collections::BTreeSet;
 
 use super::csv::text;
 use super::folder::ResultsDir;
-use super::session_log::{ReadLog, read_header};
+use super::session_log::{Header, ReadLog, read_header};
 use super::{ResultsError, replace_file};
+use crate::protocol::engine::TrialRecord;
 use crate::protocol::kind::Kinds;
 
 /// The data CSV columns every kind has.
@@ -27,30 +28,43 @@ pub const COMMON_COLUMNS: [&str; 10] = [
 /// `;`-separated; missing values are empty cells.
 #[must_use]
 pub fn data_csv<K: Kinds>(log: &ReadLog<K>) -> String {
-    let h = &log.header;
-    let kind = h.protocol.kind();
-    let mut out: Vec<&str> = COMMON_COLUMNS.to_vec();
-    out.extend_from_slice(K::columns(kind).unwrap_or_default());
-    let mut csv = out.join(",");
+    let mut csv = data_columns::<K>(log.header.protocol.kind()).join(",");
     csv.push('\n');
     for r in &log.trials {
-        let mut row = vec![
-            text(&h.protocol_id),
-            kind.to_owned(),
-            text(&h.participant),
-            h.session.to_string(),
-            r.trial.to_string(),
-            text(&r.block),
-            r.status.as_str().to_owned(),
-            h.plan_seed.to_string(),
-            r.practice.to_string(),
-            r.repetition.to_string(),
-        ];
-        row.extend(K::row(&r.data));
-        csv.push_str(&row.join(","));
+        csv.push_str(&data_cells(&log.header, r).join(","));
         csv.push('\n');
     }
     csv
+}
+
+/// The data-CSV columns of a session of `kind`: the common ones, then the
+/// kind's.
+#[must_use]
+pub fn data_columns<K: Kinds>(kind: &str) -> Vec<&'static str> {
+    let mut out: Vec<&str> = COMMON_COLUMNS.to_vec();
+    out.extend_from_slice(K::columns(kind).unwrap_or_default());
+    out
+}
+
+/// The data-CSV cells of record `r` of the session of `h`, one per
+/// [`data_columns`] entry, as the file holds them (text quoted where it
+/// must be).
+#[must_use]
+pub fn data_cells<K: Kinds>(h: &Header<K>, r: &TrialRecord<K>) -> Vec<String> {
+    let mut row = vec![
+        text(&h.protocol_id),
+        h.protocol.kind().to_owned(),
+        text(&h.participant),
+        h.session.to_string(),
+        r.trial.to_string(),
+        text(&r.block),
+        r.status.as_str().to_owned(),
+        h.plan_seed.to_string(),
+        r.practice.to_string(),
+        r.repetition.to_string(),
+    ];
+    row.extend(K::row(&r.data));
+    row
 }
 
 /// Writes `dataset_description.json` listing every column of every data file

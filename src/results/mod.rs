@@ -33,7 +33,9 @@ use std::io;
 use std::path::Path;
 
 pub use atomic::replace_file;
-pub use export::{COMMON_COLUMNS, data_csv, kinds_present, write_dataset_description};
+pub use export::{
+    COMMON_COLUMNS, data_cells, data_columns, data_csv, kinds_present, write_dataset_description,
+};
 pub use folder::{MAX_ID_CHARS, ResultsDir, SessionFiles, check_participant, file_key};
 pub use lock::{FolderLock, Holder, lock_file, open_elsewhere};
 pub use session_log::{

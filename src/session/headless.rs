@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use super::{Phase, Responder, Session, SessionError, SessionRequest};
 use crate::interrupt::{Interrupt, Signal};
-use crate::kinds::{Header, Protocol};
+use crate::kinds::{Header, Protocol, ReadLog};
 use crate::participant::SimParticipant;
 use crate::results::ResultsDir;
 
@@ -138,8 +138,18 @@ pub fn run_planned<R: Responder>(
     stop: Option<&Interrupt>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<SessionOutcome, SessionError> {
-    let mut session =
-        Session::from_planned(dir, planned, &super::DeviceChoice::Simulated, responder)?;
+    let session = Session::from_planned(dir, planned, &super::DeviceChoice::Simulated, responder)?;
+    drive(session, pace, stop, progress).map(|(outcome, _)| outcome)
+}
+
+/// Steps a session on the simulated device to its end, paced by `pace`;
+/// a signal in `stop` ends it. Returns its outcome and the session.
+fn drive<R: Responder>(
+    mut session: Session<R>,
+    pace: Option<f64>,
+    stop: Option<&Interrupt>,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<(SessionOutcome, Session<R>), SessionError> {
     let pacer = Pacer {
         pace,
         wall: Instant::now(),
@@ -152,12 +162,40 @@ pub fn run_planned<R: Responder>(
         ticks += 1;
         if ticks.is_multiple_of(64) {
             if let Some(signal) = stopped(&mut session, stop)? {
-                return Ok(session.outcome().interrupted_by(signal));
+                return Ok((session.outcome().interrupted_by(signal), session));
             }
             pacer.wait(session.now_s());
         }
     }
-    Ok(session.outcome())
+    Ok((session.outcome(), session))
+}
+
+/// Runs the session of simulated participant `i` of `sim` (as
+/// [`simulate_participants`] would, as session 1) with its records kept in
+/// memory: no file is written, and the records are those the session's log
+/// would hold. For replays that only analyse (power planning).
+///
+/// # Errors
+/// None in practice (no I/O is done).
+pub fn simulate_in_memory(sim: &Simulation<'_>, i: u32) -> Result<ReadLog, SessionError> {
+    let id = sim_id(i);
+    let req = SessionRequest {
+        protocol: sim.protocol,
+        protocol_bytes: sim.protocol_bytes,
+        participant: &id,
+        participant_index: Some(i),
+        seed: participant_seed(sim.seed, i),
+        resume: false,
+        pace: None,
+        device: &super::DeviceChoice::Simulated,
+        streams: false,
+        population: sim.population,
+    };
+    let (header, source) =
+        super::open::new_session(&req, 1, i, <SimParticipant as Responder>::LABEL);
+    let session = Session::in_memory(header, source, sim_participant)?;
+    let (_, session) = drive(session, None, None, &mut |_, _| {})?;
+    Ok(session.into_records())
 }
 
 /// Runs (or resumes) one session on the device of `req` (a serial port; the

@@ -64,7 +64,7 @@ use std::path::PathBuf;
 pub use device::{DeviceStatus, HAND_EVERY_S, percentile};
 pub use headless::{
     SessionOutcome, Simulation, participant_seed, run_device, run_planned, run_simulated, sim_id,
-    sim_participant, simulate_participants,
+    sim_participant, simulate_in_memory, simulate_participants,
 };
 use open::Log;
 pub use open::{DeviceChoice, OpenLog, Planned, SessionRequest, plan};
@@ -80,7 +80,8 @@ use crate::device::haptic::HapticLoop;
 use crate::device::link::LinkState;
 use crate::device::sim::{Apparatus, SimDevice};
 use crate::friction::{ModelParams, StepParams};
-use crate::kinds::{Action, Engine, Header, LogLine};
+use crate::kinds::{Action, Engine, Header, LogLine, ReadLog, Registry};
+use crate::protocol::engine::TrialSource;
 use crate::protocol::engine::{Input, RenderMode};
 use crate::results::{ResultsDir, ResultsError};
 use device::{Device, Port};
@@ -217,15 +218,88 @@ impl<R: Responder> Session<R> {
         let resumed_at = planned.resumes_at();
         let engine = planned.engine();
         let rate_hz = planned.source.loop_rate_hz();
-        let mut log = Log::Planned {
+        let log = Log::Planned {
             planned: Box::new(planned),
             dir: dir.clone(),
             notes: Vec::new(),
         };
+        Session::assemble(
+            log,
+            engine,
+            (start_t, resumed_at),
+            rate_hz,
+            device,
+            responder,
+        )
+    }
+
+    /// A new session on the simulated device whose records stay in memory
+    /// (no file is written: [`Session::into_records`] hands them over),
+    /// with the header and trial source of [`open::new_session`]. What it
+    /// presents and records is what the same session run into a results
+    /// folder would.
+    ///
+    /// # Errors
+    /// None in practice (no I/O); the type is the other sessions'.
+    pub fn in_memory(
+        header: Header,
+        source: std::sync::Arc<dyn TrialSource<Registry>>,
+        responder: impl FnOnce(&Header) -> R,
+    ) -> Result<Self, SessionError> {
+        let responder = responder(&header);
+        let rate_hz = source.loop_rate_hz();
+        let engine = Engine::resume(header.protocol.clone(), source, Vec::new());
+        let log = Log::Memory(Box::new(ReadLog {
+            header,
+            trials: Vec::new(),
+            ended: false,
+            valid_len: 0,
+            torn_bytes: 0,
+        }));
+        Session::assemble(
+            log,
+            engine,
+            (0.0, None),
+            rate_hz,
+            &DeviceChoice::Simulated,
+            responder,
+        )
+    }
+
+    /// The session's header and records (those kept in memory by
+    /// [`Session::in_memory`], or those its log holds; none before its log
+    /// opens).
+    #[must_use]
+    pub fn into_records(self) -> ReadLog {
+        match self.log {
+            Log::Memory(read) => *read,
+            Log::Open(open) => open.read,
+            Log::Planned { planned, .. } => ReadLog {
+                header: planned.header().clone(),
+                trials: Vec::new(),
+                ended: false,
+                valid_len: 0,
+                torn_bytes: 0,
+            },
+        }
+    }
+
+    /// Starts the device and the session around `log` and `engine`, at
+    /// session time `start_t` (`resumed_at`: the trial a resume starts at).
+    fn assemble(
+        mut log: Log,
+        engine: Engine,
+        (start_t, resumed_at): (f64, Option<usize>),
+        rate_hz: f64,
+        device: &DeviceChoice,
+        responder: R,
+    ) -> Result<Self, SessionError> {
         let device_label = device.label();
         let device = match device {
             DeviceChoice::Simulated => {
-                log.open()?;
+                if !matches!(log, Log::Memory(_)) {
+                    log.open()?;
+                }
                 let step = StepParams::default();
                 Device::Sim {
                     device: Box::new(SimDevice::new(
@@ -525,7 +599,7 @@ impl<R: Responder> Session<R> {
             Action::Record(record) => {
                 let mut record = record.clone();
                 record.rendering = self.renders.take();
-                self.log.open()?.write_record(&record)?;
+                self.log.write_record(&record)?;
                 self.records += 1;
                 self.last_record = Some(record.trial);
                 if !record.requeued {
@@ -535,7 +609,7 @@ impl<R: Responder> Session<R> {
             }
             Action::Finished => {
                 self.stop_device()?;
-                self.log.open()?.write_end()?;
+                self.log.write_end()?;
                 self.phase = Phase::Finished;
                 return Ok(());
             }
@@ -686,6 +760,8 @@ impl<R: Responder> Session<R> {
                 notes.push(text.to_owned());
                 Ok(())
             }
+            // A session in memory is a simulated one: no experimenter.
+            Log::Memory(_) => Ok(()),
         }
     }
 }

@@ -11,7 +11,7 @@ use std::sync::Arc;
 use super::SessionError;
 use super::record::StreamRecorder;
 use crate::kinds::{Engine, Protocol, Registry};
-use crate::kinds::{Header, LogLine, ReadLog};
+use crate::kinds::{Header, LogLine, ReadLog, TrialRecord};
 use crate::protocol::engine::TrialSource;
 use crate::protocol::kind::Kinds;
 use crate::results::{
@@ -162,11 +162,31 @@ pub fn plan(
     let participant_index = req
         .participant_index
         .unwrap_or_else(|| dir.other_participants(id, req.participant));
+    let (header, source) = new_session(req, session, participant_index, responder);
+    Ok(Planned {
+        source,
+        opening: Opening::New {
+            header: Box::new(header),
+            files,
+        },
+        streams: req.streams,
+    })
+}
+
+/// The header and trial source of a new session `session` of the request,
+/// with counterbalancing index `participant_index`; `responder` as logged.
+#[must_use]
+pub fn new_session(
+    req: &SessionRequest<'_>,
+    session: u32,
+    participant_index: u32,
+    responder: &str,
+) -> (Header, Arc<dyn TrialSource<Registry>>) {
     let source = Registry::source(req.protocol, req.seed, participant_index);
     let header = Header {
         format: LOG_FORMAT.into(),
         software_version: env!("CARGO_PKG_VERSION").into(),
-        protocol_id: id.clone(),
+        protocol_id: req.protocol.id.clone(),
         protocol_sha256: sha256_hex(req.protocol_bytes),
         protocol: req.protocol.clone(),
         plan_seed: req.seed,
@@ -178,14 +198,7 @@ pub fn plan(
         planned_trials: source.planned().unwrap_or(0),
         population: req.population.cloned(),
     };
-    Ok(Planned {
-        source,
-        opening: Opening::New {
-            header: Box::new(header),
-            files,
-        },
-        streams: req.streams,
-    })
+    (header, source)
 }
 
 impl Planned {
@@ -303,7 +316,9 @@ impl Planned {
     }
 }
 
-/// The session's files: planned (nothing written; notes wait), or open.
+/// Where a session's records go: its files, planned (nothing written;
+/// notes wait) or open; or memory (no file: the records are kept for the
+/// caller, as a power study replays them).
 pub(super) enum Log {
     Planned {
         planned: Box<Planned>,
@@ -311,13 +326,50 @@ pub(super) enum Log {
         notes: Vec<String>,
     },
     Open(Box<OpenLog>),
+    Memory(Box<ReadLog>),
 }
 
 impl Log {
+    /// A trial record, on disk ([`OpenLog::write_record`]) or kept.
+    pub(super) fn write_record(&mut self, record: &TrialRecord) -> Result<(), ResultsError> {
+        match self {
+            Log::Memory(read) => {
+                read.trials.push(record.clone());
+                Ok(())
+            }
+            _ => self.open()?.write_record(record),
+        }
+    }
+
+    /// The session's end ([`OpenLog::write_end`]).
+    pub(super) fn write_end(&mut self) -> Result<(), ResultsError> {
+        match self {
+            Log::Memory(read) => {
+                read.ended = true;
+                Ok(())
+            }
+            _ => self.open()?.write_end().map(|_| ()),
+        }
+    }
+
+    /// The records so far (none of a session whose files are not open).
+    pub(super) fn read(&self) -> Option<&ReadLog> {
+        match self {
+            Log::Open(open) => Some(&open.read),
+            Log::Memory(read) => Some(read),
+            Log::Planned { .. } => None,
+        }
+    }
+
     /// Opens planned files, writing the notes that waited; open files stay.
+    /// A session in memory has none: an error (no caller asks).
     pub(super) fn open(&mut self) -> Result<&mut OpenLog, ResultsError> {
         match self {
             Log::Open(open) => Ok(open),
+            Log::Memory(_) => Err(ResultsError::Io {
+                path: String::new(),
+                source: std::io::Error::other("a session in memory has no files"),
+            }),
             Log::Planned {
                 planned,
                 dir,
@@ -336,13 +388,14 @@ impl Log {
     pub(super) fn opened(&mut self) -> Option<&mut OpenLog> {
         match self {
             Log::Open(open) => Some(open),
-            Log::Planned { .. } => None,
+            Log::Planned { .. } | Log::Memory(_) => None,
         }
     }
 
     pub(super) fn header(&self) -> &Header {
         match self {
             Log::Open(open) => &open.read.header,
+            Log::Memory(read) => &read.header,
             Log::Planned { planned, .. } => planned.header(),
         }
     }

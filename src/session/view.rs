@@ -8,7 +8,7 @@ use std::path::Path;
 use super::device::count_f64;
 use super::{DeviceStatus, Log, Responder, Session, SessionOutcome};
 use crate::device::DeviceSample;
-use crate::kinds::{Action, Engine};
+use crate::kinds::{Action, Engine, ReadLog};
 use crate::protocol::engine::{Question, Screen};
 
 /// Interval of the live trace, s (200 Hz).
@@ -149,10 +149,11 @@ impl<R: Responder> Session<R> {
         self.phase
     }
 
-    /// Whether the log is open (on a port: the device has answered).
+    /// Whether the log is open (on a port: the device has answered); a
+    /// session in memory always is.
     #[must_use]
     pub fn is_open(&self) -> bool {
-        matches!(self.log, Log::Open(_))
+        !matches!(self.log, Log::Planned { .. })
     }
 
     /// How long the device has not answered, s (None while it answers).
@@ -170,10 +171,7 @@ impl<R: Responder> Session<R> {
     /// Trials completed in the whole session so far.
     #[must_use]
     pub fn completed(&self) -> usize {
-        match &self.log {
-            Log::Open(open) => open.read.completed(),
-            Log::Planned { .. } => 0,
-        }
+        self.log.read().map_or(0, ReadLog::completed)
     }
 
     /// Session number.
@@ -194,21 +192,23 @@ impl<R: Responder> Session<R> {
         &self.log.header().participant
     }
 
-    /// The data CSV.
+    /// The data CSV (empty for a session in memory).
     #[must_use]
     pub fn csv(&self) -> &Path {
         match &self.log {
             Log::Open(open) => &open.csv,
             Log::Planned { planned, .. } => &planned.files().csv,
+            Log::Memory(_) => Path::new(""),
         }
     }
 
-    /// The session log.
+    /// The session log (empty for a session in memory).
     #[must_use]
     pub fn log_path(&self) -> &Path {
         match &self.log {
             Log::Open(open) => open.log.path(),
             Log::Planned { planned, .. } => &planned.files().log,
+            Log::Memory(_) => Path::new(""),
         }
     }
 
@@ -281,9 +281,10 @@ impl<R: Responder> Session<R> {
     #[must_use]
     pub fn outcome(&self) -> SessionOutcome {
         let completed = self.completed();
-        let (aborted, torn_bytes) = match &self.log {
-            Log::Open(open) => (open.read.trials.len() - completed, open.torn_bytes),
-            Log::Planned { .. } => (0, 0),
+        let aborted = self.log.read().map_or(0, |r| r.trials.len() - completed);
+        let torn_bytes = match &self.log {
+            Log::Open(open) => open.torn_bytes,
+            Log::Planned { .. } | Log::Memory(_) => 0,
         };
         SessionOutcome {
             session: self.session(),

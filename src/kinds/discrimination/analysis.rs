@@ -40,8 +40,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde_json::{Value, json};
 
-use crate::analysis::{Rows, Table, num, opt, text};
 use super::{Comparison, DiscriminationDesign};
+use crate::analysis::{Rows, Table, num, opt, text};
 use crate::participant::id_hash;
 use crate::problem::Problem;
 
@@ -89,13 +89,28 @@ pub struct Discrimination {
     pub design: DiscriminationDesign,
 }
 
-/// Fits one track.
+/// Fits one track, with the threshold's bootstrap and profile-likelihood
+/// intervals.
 #[must_use]
 pub fn fit_track(
     design: &DiscriminationDesign,
     participant: &str,
     level: f64,
     answers: Vec<(f64, bool)>,
+) -> TrackFit {
+    fit_track_with(design, participant, level, answers, true)
+}
+
+/// Fits one track; with `intervals`, the threshold's bootstrap and
+/// profile-likelihood intervals too (else they are `None`; the point
+/// estimates are the same).
+#[must_use]
+pub fn fit_track_with(
+    design: &DiscriminationDesign,
+    participant: &str,
+    level: f64,
+    answers: Vec<(f64, bool)>,
+    intervals: bool,
 ) -> TrackFit {
     let spec = FitSpec {
         shape: design.fit.shape,
@@ -112,7 +127,8 @@ pub fn fit_track(
         }
         .threshold_at(design.criterion)
     });
-    let threshold_ci = fitted.filter(|_| threshold.is_some()).and_then(|f| {
+    let with_intervals = fitted.filter(|_| threshold.is_some() && intervals);
+    let threshold_ci = with_intervals.and_then(|f| {
         let mut rng =
             ChaCha8Rng::seed_from_u64(id_hash(participant) ^ level.to_bits().rotate_left(17));
         bootstrap_threshold(
@@ -126,9 +142,8 @@ pub fn fit_track(
         )
         .map(|b| (b.interval.lo, b.interval.hi))
     });
-    let threshold_profile = fitted
-        .filter(|_| threshold.is_some())
-        .and_then(|f| profile_threshold(&spec, &f, &data, design.criterion, 0.95));
+    let threshold_profile =
+        with_intervals.and_then(|f| profile_threshold(&spec, &f, &data, design.criterion, 0.95));
     let c = design.comparison;
     let jnd = threshold.map(|x| c.value(level, x) - level);
     let weber = threshold.map(|x| c.weber(level, x));
@@ -152,7 +167,8 @@ pub fn fit_track(
 }
 
 /// Analyses the discrimination rows of `folder`, whose fits follow
-/// `design` (the first of the folder's session logs that has one).
+/// `design` (the first of the folder's session logs that has one); with
+/// `intervals`, each track's bootstrap and profile intervals too.
 ///
 /// # Errors
 /// No session log in the folder holds the discrimination protocol, or a
@@ -161,6 +177,7 @@ pub fn analyze(
     rows: &Rows,
     folder: &Path,
     design: Option<&DiscriminationDesign>,
+    intervals: bool,
 ) -> Result<Discrimination, Problem> {
     let design = design.cloned().ok_or_else(|| {
         Problem::new(
@@ -186,7 +203,9 @@ pub fn analyze(
     }
     let tracks: Vec<TrackFit> = by_track
         .into_iter()
-        .map(|((p, level), answers)| fit_track(&design, &p, f64::from_bits(level), answers))
+        .map(|((p, level), answers)| {
+            fit_track_with(&design, &p, f64::from_bits(level), answers, intervals)
+        })
         .collect();
     let mut notes = Vec::new();
     for t in &tracks {

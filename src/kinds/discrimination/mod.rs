@@ -40,7 +40,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use crate::analysis::{AnalysisEntry, KindAnalysis, Section, designs_of};
+use crate::analysis::{AnalysisEntry, KindAnalysis, Scope, Section, designs_of};
 use crate::friction::ModelParams;
 use crate::kinds::paired::{Compare, Paired, PairedData, PairedTrial};
 use crate::protocol::check::Checks;
@@ -861,11 +861,12 @@ impl KindAnalysis for Discrimination {
             unread: &["first", "second", "choice", "chosen"],
             optional: &[],
             counts_aborted: false,
-            run: |rows, folder, designs| {
-                let design = designs_of::<Self, K>(designs).next();
-                let d = analysis::analyze(rows, folder, design)?;
+            run: |rows, context| {
+                let design = designs_of::<Self, K>(context.designs).next();
+                let intervals = context.scope == Scope::Report;
+                let d = analysis::analyze(rows, context.folder, design, intervals)?;
                 Ok(Section {
-                    html: report::discrimination_section(&d),
+                    html: context.report(|| report::discrimination_section(&d)),
                     summary: d.summary,
                     notes: d.notes,
                     tables: d.tables,

@@ -590,10 +590,10 @@ impl KindAnalysis for Fitts {
             ],
             optional: &["click_times_s", "click_x_m", "click_target_x_m", "click_hit"],
             counts_aborted: true,
-            run: |rows, _, _| {
+            run: |rows, context| {
                 let f = analysis::analyze(rows)?;
                 Ok(Section {
-                    html: report::fitts_section(&f),
+                    html: context.report(|| report::fitts_section(&f)),
                     summary: f.summary,
                     notes: f.notes,
                     tables: f.tables,

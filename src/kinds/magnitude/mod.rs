@@ -322,10 +322,10 @@ impl KindAnalysis for Magnitude {
             unread: &["response_time_s"],
             optional: &[],
             counts_aborted: false,
-            run: |rows, _, designs| {
-                let m = analysis::analyze(rows, &display_order::<K>(designs))?;
+            run: |rows, context| {
+                let m = analysis::analyze(rows, &display_order::<K>(context.designs))?;
                 Ok(Section {
-                    html: report::magnitude_section(&m),
+                    html: context.report(|| report::magnitude_section(&m)),
                     summary: m.summary,
                     notes: m.notes,
                     tables: m.tables,

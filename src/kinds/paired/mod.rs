@@ -306,10 +306,10 @@ impl KindAnalysis for Paired {
             unread: &[],
             optional: &[],
             counts_aborted: false,
-            run: |rows, _, _| {
+            run: |rows, context| {
                 let p = analysis::analyze(rows)?;
                 Ok(Section {
-                    html: report::paired_section(&p),
+                    html: context.report(|| report::paired_section(&p)),
                     summary: p.summary,
                     notes: p.notes,
                     tables: p.tables,
