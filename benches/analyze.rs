@@ -7,7 +7,9 @@
 //! log first (issue 31); `magnitude-1M-trials-csv-only` is the same folder
 //! analysed CSV-only, for the cost of that check.
 //!
-//! The time is criterion's median of the library call. The memory is the
+//! The time is criterion's median of the library call. With
+//! `FRICTIONLAB_BENCH_KEEP=DIR` the folder is also copied to `DIR`, for the
+//! independent peer `analysis/peers/pandas_magnitude.py` to read. The memory is the
 //! peak resident size (`VmHWM`) that the `frictionlab analyze` binary reports
 //! for the same folder, printed once.
 
@@ -116,6 +118,21 @@ fn generate(dir: &Path) {
 fn million(c: &mut Criterion) {
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("cannot create a folder: {e}"));
     generate(dir.path());
+    // The folder kept for a peer to read (analysis/peers/pandas_magnitude.py).
+    if let Some(keep) = std::env::var_os("FRICTIONLAB_BENCH_KEEP") {
+        let keep = Path::new(&keep);
+        for sub in ["data", "logs"] {
+            let to = keep.join(sub);
+            std::fs::create_dir_all(&to).unwrap_or_else(|e| panic!("{}: {e}", to.display()));
+            for f in std::fs::read_dir(dir.path().join(sub))
+                .unwrap_or_else(|e| panic!("{sub}: {e}"))
+                .filter_map(Result::ok)
+            {
+                std::fs::copy(f.path(), to.join(f.file_name()))
+                    .unwrap_or_else(|e| panic!("{}: {e}", f.path().display()));
+            }
+        }
+    }
     let report = dir.path().join("report");
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_frictionlab"))
         .args([

@@ -742,9 +742,15 @@ pub(super) fn power_command(args: &PowerArgs) -> Result<(), Failure> {
         .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     let wall = std::time::Instant::now();
+    let started = std::sync::atomic::AtomicBool::new(false);
     let outcome = crate::power::run_shard(&plan, shard, &args.out, jobs, &|done, total| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
+        // The first call counts the studies found done (a rerun): the ETA
+        // follows the studies run from now on.
+        if !started.swap(true, std::sync::atomic::Ordering::Relaxed) {
+            bar.reset_eta();
+        }
     })?;
     bar.finish_and_clear();
     let elapsed = wall.elapsed().as_secs_f64();

@@ -169,11 +169,14 @@ pub struct SimParticipant {
 }
 
 #[derive(Debug, Clone)]
+/// The large states are boxed: `decide` moves the behaviour out and back
+/// every tick, a pointer's copy rather than the state's (a memcpy was 10%
+/// of a discrimination replay's instructions).
 enum Behaviour {
     Idle,
     Explore(Explore),
-    Slide(Slide),
-    Tap(Tap),
+    Slide(Box<Slide>),
+    Tap(Box<Tap>),
 }
 
 #[derive(Debug, Clone)]
@@ -347,7 +350,7 @@ impl SimParticipant {
             }) if !matches!(self.behaviour, Behaviour::Slide(_)) => {
                 self.start_trial(trial);
                 let preferred = self.preferred_stimulus(trial);
-                self.behaviour = Behaviour::Slide(Slide {
+                self.behaviour = Behaviour::Slide(Box::new(Slide {
                     stimulus: 0,
                     start: now,
                     trace: Vec::new(),
@@ -357,7 +360,7 @@ impl SimParticipant {
                     forced: forced.is_some(),
                     preferred,
                     answered: false,
-                });
+                }));
                 Reaction {
                     inputs: vec![],
                     reset_to: Some(SLIDE_START_M),
@@ -414,7 +417,7 @@ impl SimParticipant {
         }
         // A new test: the hand starts at rest on the first lit target.
         self.start_trial(trial);
-        self.behaviour = Behaviour::Tap(Tap::start(lit_other, w_eff, now));
+        self.behaviour = Behaviour::Tap(Box::new(Tap::start(lit_other, w_eff, now)));
         Reaction {
             inputs: vec![],
             reset_to: Some(lit_other[0]),

@@ -616,10 +616,12 @@ pub fn run_shard(
         for record in &records {
             append_line(&mut f, &journal, record)?;
         }
-        drop(f);
+        // Counted and reported under the journal's lock, so the counts
+        // reach `progress` in order, however fast studies end.
         let count =
             done.fetch_add(records.len(), std::sync::atomic::Ordering::Relaxed) + records.len();
         progress(count, indices.len());
+        drop(f);
         Ok::<_, PowerError>(records)
     }) {
         for record in records? {

@@ -306,8 +306,13 @@ fn compare<K: Kinds>(
     read: &ReadLog<K>,
     lines: &[usize],
 ) -> Result<(), Problem> {
+    let made = data_csv(read);
+    // The CSV as its session wrote it, byte for byte: nothing to tell.
+    if made == text {
+        return Ok(());
+    }
     let actual = records(text);
-    let expected = records(&data_csv(read));
+    let expected = records(&made);
     let (Some(head), Some(exp_head)) = (actual.first(), expected.first()) else {
         return Ok(());
     };

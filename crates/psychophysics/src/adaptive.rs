@@ -22,6 +22,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::psychometric::{Params, Shape};
+use std::sync::Arc;
 
 /// A problem with a rule or spec: the field at fault and what is wrong.
 pub type Problem = (&'static str, String);
@@ -485,16 +486,12 @@ fn xlnx(v: f64) -> f64 {
     if v > 0.0 { v * v.ln() } else { 0.0 }
 }
 
-/// A QUEST+ run: the likelihood table of the spec's grid and the posterior
-/// over it after the answers so far.
-///
-/// The parameter sets are indexed threshold-major, lapse-minor:
-/// `(threshold_index * slopes + slope_index) * lapses + lapse_index`.
-/// The posterior is kept normalised, multiplied by each answer's likelihood
-/// and divided by its sum (no logs), so it is a plain function of the
-/// answers: replaying them gives the same bits.
+/// The likelihood table of a QUEST+ spec's grid: `P(correct | stimulus,
+/// params)` and the answer's entropy for each entry. Computed once
+/// ([`QuestPlusTable::new`]) and shared by every run on the spec
+/// ([`QuestPlus::on`]): a run's state is its posterior alone.
 #[derive(Debug, Clone, PartialEq)]
-pub struct QuestPlus {
+pub struct QuestPlusTable {
     spec: QuestPlusSpec,
     problem: Option<Problem>,
     /// Parameter sets in the grid.
@@ -504,6 +501,56 @@ pub struct QuestPlus {
     /// `pc ln pc + (1 - pc) ln(1 - pc)` of each entry of `p_correct`: minus
     /// the entropy of the answer given the parameters.
     neg_entropy: Vec<f64>,
+}
+
+impl QuestPlusTable {
+    /// The table of `spec` (empty, with the spec's problem, if it fails
+    /// [`QuestPlusSpec::check`]).
+    #[must_use]
+    pub fn new(spec: &QuestPlusSpec) -> Self {
+        let mut t = Self {
+            spec: spec.clone(),
+            problem: spec.check().err(),
+            n_params: 0,
+            p_correct: Vec::new(),
+            neg_entropy: Vec::new(),
+        };
+        if t.problem.is_some() {
+            return t;
+        }
+        let n_params = spec.thresholds.len() * spec.slopes.len() * spec.lapses.len();
+        let n = spec.stimuli.len() * n_params;
+        t.n_params = n_params;
+        t.p_correct.reserve_exact(n);
+        t.neg_entropy.reserve_exact(n);
+        for &x in &spec.stimuli {
+            for &threshold in &spec.thresholds {
+                for &slope in &spec.slopes {
+                    let f = spec.shape.f(x, threshold, slope);
+                    for &lapse in &spec.lapses {
+                        // As Psychometric::p_correct, to the bit.
+                        let pc = spec.guess + (1.0 - spec.guess - lapse) * f;
+                        t.p_correct.push(pc);
+                        t.neg_entropy.push(xlnx(pc) + xlnx(1.0 - pc));
+                    }
+                }
+            }
+        }
+        t
+    }
+}
+
+/// A QUEST+ run: the likelihood table of the spec's grid (shared) and the
+/// posterior over it after the answers so far.
+///
+/// The parameter sets are indexed threshold-major, lapse-minor:
+/// `(threshold_index * slopes + slope_index) * lapses + lapse_index`.
+/// The posterior is kept normalised, multiplied by each answer's likelihood
+/// and divided by its sum (no logs), so it is a plain function of the
+/// answers: replaying them gives the same bits.
+#[derive(Debug, Clone, PartialEq)]
+pub struct QuestPlus {
+    table: Arc<QuestPlusTable>,
     /// The posterior over the parameter sets, summing to 1.
     posterior: Vec<f64>,
     trials: u32,
@@ -518,38 +565,23 @@ impl QuestPlus {
     /// why.
     #[must_use]
     pub fn new(spec: &QuestPlusSpec) -> Self {
-        let mut q = Self {
-            spec: spec.clone(),
-            problem: spec.check().err(),
-            n_params: 0,
-            p_correct: Vec::new(),
-            neg_entropy: Vec::new(),
-            posterior: Vec::new(),
-            trials: 0,
+        Self::on(Arc::new(QuestPlusTable::new(spec)))
+    }
+
+    /// A run before its first trial on a table already made (many runs on
+    /// one spec share it), with a uniform prior over the grid.
+    #[must_use]
+    pub fn on(table: Arc<QuestPlusTable>) -> Self {
+        let posterior = if table.problem.is_some() {
+            Vec::new()
+        } else {
+            vec![1.0 / table.n_params as f64; table.n_params]
         };
-        if q.problem.is_some() {
-            return q;
+        Self {
+            table,
+            posterior,
+            trials: 0,
         }
-        let n_params = spec.thresholds.len() * spec.slopes.len() * spec.lapses.len();
-        let n = spec.stimuli.len() * n_params;
-        q.n_params = n_params;
-        q.p_correct.reserve_exact(n);
-        q.neg_entropy.reserve_exact(n);
-        for &x in &spec.stimuli {
-            for &threshold in &spec.thresholds {
-                for &slope in &spec.slopes {
-                    let f = spec.shape.f(x, threshold, slope);
-                    for &lapse in &spec.lapses {
-                        // As Psychometric::p_correct, to the bit.
-                        let pc = spec.guess + (1.0 - spec.guess - lapse) * f;
-                        q.p_correct.push(pc);
-                        q.neg_entropy.push(xlnx(pc) + xlnx(1.0 - pc));
-                    }
-                }
-            }
-        }
-        q.posterior = vec![1.0 / n_params as f64; n_params];
-        q
     }
 
     /// The run after `answers` (stimulus, correct; in trial order) from
@@ -566,13 +598,13 @@ impl QuestPlus {
     /// The spec's problem if it failed [`QuestPlusSpec::check`].
     #[must_use]
     pub fn problem(&self) -> Option<&Problem> {
-        self.problem.as_ref()
+        self.table.problem.as_ref()
     }
 
     /// The spec the run was built from.
     #[must_use]
     pub fn spec(&self) -> &QuestPlusSpec {
-        &self.spec
+        &self.table.spec
     }
 
     /// The posterior over the parameter sets (indexing in the type's docs).
@@ -590,10 +622,15 @@ impl QuestPlus {
     /// Whether a stopping rule is met (or the spec is unusable).
     #[must_use]
     pub fn stopped(&self) -> bool {
-        self.problem.is_some()
-            || self.trials >= self.spec.max_trials
-            || self.spec.stop_trials.is_some_and(|n| self.trials >= n)
+        self.table.problem.is_some()
+            || self.trials >= self.table.spec.max_trials
             || self
+                .table
+                .spec
+                .stop_trials
+                .is_some_and(|n| self.trials >= n)
+            || self
+                .table
                 .spec
                 .stop_threshold_sd
                 .is_some_and(|sd| self.threshold_sd() <= sd)
@@ -613,7 +650,7 @@ impl QuestPlus {
                 best = Some((i, h));
             }
         }
-        best.and_then(|(i, _)| self.spec.stimuli.get(i).copied())
+        best.and_then(|(i, _)| self.table.spec.stimuli.get(i).copied())
     }
 
     /// The expected entropy (nats) of the posterior after a trial at each
@@ -633,10 +670,11 @@ impl QuestPlus {
     /// sum_params post sum_o L_o ln L_o`, so each stimulus costs two dot
     /// products with precomputed rows and no logarithm of the posterior.
     fn entropy_scores(&self) -> impl Iterator<Item = f64> + '_ {
-        let n = self.n_params.max(1);
-        self.p_correct
+        let n = self.table.n_params.max(1);
+        self.table
+            .p_correct
             .chunks_exact(n)
-            .zip(self.neg_entropy.chunks_exact(n))
+            .zip(self.table.neg_entropy.chunks_exact(n))
             .map(|(pc, ne)| {
                 let mut p1 = 0.0;
                 let mut info = 0.0;
@@ -651,7 +689,7 @@ impl QuestPlus {
 
     /// The index of the grid stimulus nearest `x` (the lower on a tie).
     fn nearest(&self, x: f64) -> usize {
-        let s = &self.spec.stimuli;
+        let s = &self.table.spec.stimuli;
         let k = s.partition_point(|&v| v < x);
         if k == 0 {
             0
@@ -673,12 +711,12 @@ impl QuestPlus {
     /// lapse rate 0 alone on the grid) leaves the posterior as it was but
     /// counts as a trial.
     pub fn update(&mut self, x: f64, correct: bool) {
-        if self.problem.is_some() || x.is_nan() {
+        if self.table.problem.is_some() || x.is_nan() {
             return;
         }
-        let n = self.n_params;
+        let n = self.table.n_params;
         let i = self.nearest(x);
-        let Some(row) = self.p_correct.get(i * n..(i + 1) * n) else {
+        let Some(row) = self.table.p_correct.get(i * n..(i + 1) * n) else {
             return;
         };
         let likelihood = |pc: f64| if correct { pc } else { 1.0 - pc };
@@ -699,7 +737,7 @@ impl QuestPlus {
     /// The posterior means of each parameter's marginal (NaN if inert).
     #[must_use]
     pub fn mean(&self) -> Params {
-        if self.problem.is_some() {
+        if self.table.problem.is_some() {
             return Params {
                 threshold: f64::NAN,
                 slope: f64::NAN,
@@ -708,9 +746,9 @@ impl QuestPlus {
         }
         let (mut threshold, mut slope, mut lapse) = (0.0, 0.0, 0.0);
         let mut w = self.posterior.iter();
-        for &t in &self.spec.thresholds {
-            for &s in &self.spec.slopes {
-                for &l in &self.spec.lapses {
+        for &t in &self.table.spec.thresholds {
+            for &s in &self.table.spec.slopes {
+                for &l in &self.table.spec.lapses {
                     let p = w.next().copied().unwrap_or(0.0);
                     threshold += p * t;
                     slope += p * s;
@@ -728,7 +766,7 @@ impl QuestPlus {
     /// The marginal posterior of the threshold, over the spec's thresholds.
     #[must_use]
     pub fn threshold_marginal(&self) -> Vec<f64> {
-        let per = self.spec.slopes.len() * self.spec.lapses.len();
+        let per = self.table.spec.slopes.len() * self.table.spec.lapses.len();
         if per == 0 {
             return Vec::new();
         }
@@ -741,11 +779,11 @@ impl QuestPlus {
     /// The SD of the threshold's marginal posterior (NaN if inert).
     #[must_use]
     pub fn threshold_sd(&self) -> f64 {
-        if self.problem.is_some() {
+        if self.table.problem.is_some() {
             return f64::NAN;
         }
         let marginal = self.threshold_marginal();
-        let t = &self.spec.thresholds;
+        let t = &self.table.spec.thresholds;
         let mean: f64 = marginal.iter().zip(t).map(|(p, t)| p * t).sum();
         let var: f64 = marginal
             .iter()

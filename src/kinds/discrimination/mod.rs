@@ -31,7 +31,7 @@ use std::collections::VecDeque;
 use std::sync::Arc;
 
 use frictionlab_psychophysics::adaptive::{
-    QuestPlus, QuestPlusSpec, Staircase, StaircaseRule, kaernbach_up_ratio,
+    QuestPlus, QuestPlusSpec, QuestPlusTable, Staircase, StaircaseRule, kaernbach_up_ratio,
 };
 use frictionlab_psychophysics::psychometric::Shape;
 use rand::{RngExt, SeedableRng};
@@ -572,6 +572,8 @@ impl StudyKind for Discrimination {
         Arc::new(Source {
             design: design.clone(),
             seed,
+            start: MethodStart::new(&design.method),
+            memo: std::sync::Mutex::default(),
         })
     }
 
@@ -661,17 +663,45 @@ pub enum TrackMethod {
     QuestPlus(Box<QuestPlus>),
 }
 
+/// A design's method made ready to start tracks: a staircase's rule, or
+/// QUEST+'s likelihood table, computed once and shared by every track.
+#[derive(Debug, Clone)]
+pub enum MethodStart {
+    /// A staircase's rule.
+    Staircase(StaircaseRule),
+    /// QUEST+'s table.
+    QuestPlus(Arc<QuestPlusTable>),
+}
+
+impl MethodStart {
+    /// `method`, ready.
+    #[must_use]
+    pub fn new(method: &Method) -> Self {
+        match method {
+            Method::Staircase(s) => MethodStart::Staircase(s.rule()),
+            Method::QuestPlus(q) => MethodStart::QuestPlus(Arc::new(QuestPlusTable::new(&q.spec()))),
+        }
+    }
+
+    /// A fresh track.
+    #[must_use]
+    pub fn track(&self) -> TrackMethod {
+        match self {
+            MethodStart::Staircase(rule) => {
+                TrackMethod::Staircase(Staircase::new(rule), rule.clone())
+            }
+            MethodStart::QuestPlus(table) => {
+                TrackMethod::QuestPlus(Box::new(QuestPlus::on(table.clone())))
+            }
+        }
+    }
+}
+
 impl TrackMethod {
     /// A fresh track of `method`.
     #[must_use]
     pub fn new(method: &Method) -> Self {
-        match method {
-            Method::Staircase(s) => {
-                let rule = s.rule();
-                TrackMethod::Staircase(Staircase::new(&rule), rule)
-            }
-            Method::QuestPlus(q) => TrackMethod::QuestPlus(Box::new(QuestPlus::new(&q.spec()))),
-        }
+        MethodStart::new(method).track()
     }
 
     /// The next difference, `None` once stopped.
@@ -718,23 +748,69 @@ pub fn replay<K: Holds<Discrimination>>(
     design: &DiscriminationDesign,
     history: &[TrialRecord<K>],
 ) -> Vec<TrackMethod> {
-    let mut tracks: Vec<TrackMethod> = design
-        .levels
-        .iter()
-        .map(|_| TrackMethod::new(&design.method))
-        .collect();
-    for r in history
-        .iter()
-        .filter(|r| !r.requeued && r.status == Status::Completed)
-    {
-        let Some(d) = K::data_of(&r.data) else {
-            continue;
-        };
-        if let (Some(track), Some(correct)) = (tracks.get_mut(d.track), d.correct) {
-            track.update(d.difference, correct);
-        }
+    replay_from(&MethodStart::new(&design.method), design.levels.len(), history)
+}
+
+/// [`replay`] of `levels` tracks started from `start`.
+fn replay_from<K: Holds<Discrimination>>(
+    start: &MethodStart,
+    levels: usize,
+    history: &[TrialRecord<K>],
+) -> Vec<TrackMethod> {
+    let mut tracks: Vec<TrackMethod> = (0..levels).map(|_| start.track()).collect();
+    for r in history {
+        answer(&mut tracks, r);
     }
     tracks
+}
+
+/// Takes record `r`'s answer into its track, if it is a completed, final
+/// answer of this kind; returns the track it moved.
+fn answer<K: Holds<Discrimination>>(
+    tracks: &mut [TrackMethod],
+    r: &TrialRecord<K>,
+) -> Option<usize> {
+    if r.requeued || r.status != Status::Completed {
+        return None;
+    }
+    let d = K::data_of(&r.data)?;
+    let (track, correct) = (tracks.get_mut(d.track)?, d.correct?);
+    track.update(d.difference, correct);
+    Some(d.track)
+}
+
+/// What a record holds that a replay reads, folded into a running
+/// fingerprint (`SplitMix64` steps): a source tells the history it replayed
+/// by it.
+fn fold<K: Holds<Discrimination>>(mut h: u64, r: &TrialRecord<K>) -> u64 {
+    let d = K::data_of(&r.data);
+    for v in [
+        r.trial as u64,
+        u64::from(r.requeued) | u64::from(r.status == Status::Completed) << 1,
+        d.map_or(u64::MAX, |d| d.track as u64),
+        d.map_or(0, |d| d.difference.to_bits()),
+        d.and_then(|d| d.correct).map_or(2, u64::from),
+    ] {
+        h = (h ^ v).wrapping_add(0x9e37_79b9_7f4a_7c15);
+        h = (h ^ (h >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        h = (h ^ (h >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        h ^= h >> 31;
+    }
+    h
+}
+
+/// The tracks a source last replayed: the records they took (a prefix of
+/// the history, told by its fingerprint), the tracks, and each track's next
+/// difference. A session's history only grows, so each trial replays only
+/// the records since the last: a track's state is the same as a full replay
+/// of the history gives (the same updates in the same order), and its next
+/// difference is computed once per answer it takes.
+#[derive(Debug, Default)]
+struct Memo {
+    taken: usize,
+    fingerprint: u64,
+    tracks: Vec<TrackMethod>,
+    next: Vec<Option<f64>>,
 }
 
 /// One track's answers so far, for the experimenter's live view.
@@ -783,6 +859,54 @@ pub fn tracks<K: Holds<Discrimination>>(history: &[TrialRecord<K>]) -> Vec<Track
 struct Source {
     design: DiscriminationDesign,
     seed: u64,
+    /// The design's method, ready (QUEST+'s table made once a session).
+    start: MethodStart,
+    memo: std::sync::Mutex<Memo>,
+}
+
+impl Source {
+    /// Calls `f` with every track after the records of `history`, and each
+    /// track's next difference (from the memo where it holds a prefix of
+    /// `history`, else from a replay from the start).
+    fn tracks<K: Holds<Discrimination>, R>(
+        &self,
+        history: &[TrialRecord<K>],
+        f: impl FnOnce(&[TrackMethod], &[Option<f64>]) -> R,
+    ) -> R {
+        let mut memo = self
+            .memo
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let prefix = history.get(..memo.taken).unwrap_or_default();
+        let same = memo.taken <= history.len()
+            && !memo.tracks.is_empty()
+            && prefix.iter().fold(0, fold) == memo.fingerprint;
+        if !same {
+            let tracks: Vec<TrackMethod> = (0..self.design.levels.len())
+                .map(|_| self.start.track())
+                .collect();
+            *memo = Memo {
+                taken: 0,
+                fingerprint: 0,
+                next: tracks.iter().map(TrackMethod::next).collect(),
+                tracks,
+            };
+        }
+        let Memo {
+            taken,
+            fingerprint,
+            tracks,
+            next,
+        } = &mut *memo;
+        for r in &history[*taken..] {
+            if let Some(i) = answer(tracks, r) {
+                next[i] = tracks[i].next();
+            }
+            *fingerprint = fold(*fingerprint, r);
+        }
+        *taken = history.len();
+        f(tracks, next)
+    }
 }
 
 /// `SplitMix64` of the plan seed and a trial position: the trial's seed.
@@ -796,18 +920,20 @@ fn trial_seed(seed: u64, index: usize) -> u64 {
 impl<K: Holds<Discrimination>> TrialSource<K> for Source {
     fn trial(&self, index: usize, history: &[TrialRecord<K>]) -> Option<PlannedTrial<K>> {
         let d = &self.design;
-        let tracks = replay(d, history);
-        let open: Vec<(usize, f64)> = tracks
-            .iter()
-            .enumerate()
-            .filter_map(|(i, t)| t.next().map(|x| (i, x)))
-            .collect();
-        if open.is_empty() {
-            return None;
-        }
         let seed = trial_seed(self.seed, index);
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let (track, difference) = open[rng.random_range(0..open.len())];
+        let (track, difference, state) = self.tracks(history, |tracks, next| {
+            let open: Vec<(usize, f64)> = next
+                .iter()
+                .enumerate()
+                .filter_map(|(i, x)| x.map(|x| (i, x)))
+                .collect();
+            if open.is_empty() {
+                return None;
+            }
+            let (track, difference) = open[rng.random_range(0..open.len())];
+            Some((track, difference, tracks[track].state()))
+        })?;
         let level = d.levels[track];
         let comparison_value = d.comparison.value(level, difference);
         let with = |id: &str, value: f64| {
@@ -840,7 +966,7 @@ impl<K: Holds<Discrimination>> TrialSource<K> for Source {
                 level,
                 difference,
                 comparison_value,
-                state: tracks[track].state(),
+                state,
             }),
         })
     }
