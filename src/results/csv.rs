@@ -1,4 +1,4 @@
-//! Data-CSV cells: how a kind's `row` (`crate::kinds::StudyKind::row`)
+//! Data-CSV cells: how a kind's `row` (`protocol::kind::StudyKind::row`)
 //! writes text, missing values and lists.
 
 /// Text, quoted if it holds `,`, `"` or a line break.
