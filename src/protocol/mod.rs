@@ -41,7 +41,7 @@ use crate::friction::ModelParams;
 use kind::Kinds;
 
 // `K` is the set of kinds the design may be of: the registry's
-// (`crate::kinds::Registry`), handed down from above.
+// (`Registry` in `src/kinds/mod.rs`), handed down from above.
 /// One session design: what a protocol file holds.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, bound = "")]
