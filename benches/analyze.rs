@@ -87,6 +87,8 @@ fn generate(dir: &Path) {
                         response_time_s: Some(3.2),
                     }),
                     rendering: Vec::new(),
+                    lsl_start_s: None,
+                    lsl_end_s: None,
                 }
             })
             .collect();

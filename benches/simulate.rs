@@ -34,6 +34,7 @@ fn study(text: &str, root: &std::path::Path, jobs: usize) -> f64 {
             jobs,
             population: None,
             stop: None,
+            lsl: None,
         },
         &|_| {},
     )

@@ -18,6 +18,7 @@ pub mod hand;
 pub mod identify;
 pub mod interrupt;
 pub mod kinds;
+pub mod lsl;
 pub mod parallel;
 pub mod participant;
 pub mod power;

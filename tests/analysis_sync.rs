@@ -85,6 +85,7 @@ fn check_against(
             jobs: 2,
             population: population.as_ref(),
             stop: None,
+            lsl: None,
         },
         &|_| {},
     )

@@ -281,6 +281,7 @@ fn a_live_gui_session_runs_on_the_emulated_device() {
         device: &device,
         streams: true,
         population: None,
+        lsl: None,
     };
     let mut live = LiveSession::start(&results, &req).unwrap();
     // Typed before the device has answered: kept until the log exists.
@@ -364,6 +365,7 @@ fn a_live_session_on_a_silent_device_writes_nothing() {
         device: &DeviceChoice::Port(port.clone().into()),
         streams: true,
         population: None,
+        lsl: None,
     };
     let mut live = LiveSession::start(&results, &req).unwrap();
     assert_eq!(live.session(), 1);
@@ -541,6 +543,7 @@ fn a_device_lost_in_the_answer_phase_costs_that_trial_headless() {
             device: &device,
             streams: true,
             population: None,
+            lsl: None,
         };
         run_device(&results, &req, 1.0, |_| Waiting, None, &mut |_, _| {})
     });
@@ -579,6 +582,7 @@ fn live_magnitude_quick(
         device: &DeviceChoice::Port(dev.to_path_buf()),
         streams: true,
         population: None,
+        lsl: None,
     };
     let mut live = LiveSession::start(&results, &req).unwrap();
     let start = Instant::now();

@@ -95,6 +95,7 @@ fn true_threshold(p: &Protocol, bytes: &[u8], pop: &Population, sigma: f64) -> f
         population: Some(pop),
         jobs: 1,
         stop: None,
+        lsl: None,
     };
     simulate_participants(&results, &sim, &|_| {}).unwrap();
     let [log]: [PathBuf; 1] = common::session_logs(dir.path()).try_into().unwrap();
@@ -186,6 +187,7 @@ fn recover(method: serde_json::Value, truth: f64) -> Recovery {
         population: Some(&pop),
         jobs: 2,
         stop: None,
+        lsl: None,
     };
     simulate_participants(&ResultsDir::new(dir.path()), &sim, &|_| {}).unwrap();
     let analysis = frictionlab::analysis::analyze::<Registry>(dir.path()).unwrap();

@@ -8,6 +8,8 @@
     reason = "tests: a panic is a failure"
 )]
 
+mod common;
+
 use std::path::Path;
 use std::process::Command as Process;
 
@@ -35,6 +37,10 @@ fn harness(
         out: out.to_path_buf(),
         ..Launch::default()
     };
+    harness_with(launch)
+}
+
+fn harness_with(launch: Launch) -> Harness<'static, FrictionlabApp> {
     Harness::builder()
         .with_size(egui::vec2(1920.0, 1200.0))
         .with_step_dt(STEP_S)
@@ -527,4 +533,57 @@ fn a_session_open_in_another_process_disables_resume_with_the_reason_issue_31() 
             .accesskit_node()
             .is_disabled()
     );
+}
+
+/// The setup's "Publish on LSL" box (issue 34): with no liblsl where
+/// `--lsl-lib` points, Start says so and opens nothing; with pylsl's
+/// liblsl (`--lsl` loaded it: the box starts checked), the session's
+/// records carry their LSL times and the log its `lsl` line.
+#[test]
+fn the_lsl_box_publishes_the_session_or_says_why_it_cannot_issue_34() {
+    let dir = tempfile::tempdir().unwrap();
+    let launch = Launch {
+        participant: "p01".into(),
+        out: dir.path().to_path_buf(),
+        lsl_lib: Some(dir.path().join("no-liblsl.so")),
+        ..Launch::default()
+    };
+    let mut h = harness_with(launch);
+    choose_protocol(&mut h, "magnitude-quick.json");
+    click(
+        &mut h,
+        "Publish on LSL (markers and device stream, for LabRecorder)",
+    );
+    click(&mut h, "Start new session");
+    let error = h.state().error().unwrap_or_default().to_owned();
+    assert!(error.contains("liblsl not found"), "{error}");
+    assert!(error.contains("no-liblsl.so"), "{error}");
+    assert!(h.state().live().is_none());
+    assert!(!dir.path().join("logs").exists(), "nothing written");
+
+    let Some((_, lib)) = common::need_pylsl() else {
+        return;
+    };
+    let launch = Launch {
+        participant: "p02".into(),
+        out: dir.path().to_path_buf(),
+        lsl: Some(frictionlab::lsl::load(Some(&lib)).unwrap()),
+        ..Launch::default()
+    };
+    let mut h = harness_with(launch);
+    choose_protocol(&mut h, "magnitude-quick.json");
+    start(&mut h);
+    click(&mut h, "Continue");
+    run_to_end(&mut h, "2.5", 40);
+    let l = live(&h);
+    assert_eq!(l.phase(), Phase::Finished);
+    let read = read_log::<Registry>(l.log_path()).unwrap();
+    assert_eq!(read.trials.len(), 6);
+    for pair in read.trials.windows(2) {
+        let (a, b) = (&pair[0], &pair[1]);
+        assert!(a.lsl_start_s.unwrap() < a.lsl_end_s.unwrap());
+        assert!(a.lsl_end_s.unwrap() <= b.lsl_start_s.unwrap());
+    }
+    let text = std::fs::read_to_string(l.log_path()).unwrap();
+    assert!(text.contains(r#""type":"lsl""#), "{text}");
 }

@@ -56,6 +56,7 @@ fn simulate_all(name: &str, n: u32, seed: u64, edit: impl FnOnce(&mut Value)) ->
             jobs: 2,
             population: None,
             stop: None,
+            lsl: None,
         },
         &|_| {},
     )

@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::{
-    DeviceChoice, EXIT_FAILURE, Failure, GuiArgs, IdentifyArgs, PowerArgs, RenderArgs,
+    DeviceChoice, EXIT_FAILURE, Failure, GuiArgs, IdentifyArgs, LslArgs, PowerArgs, RenderArgs,
     ResponderChoice, RunArgs, SimulateArgs, UserError, device_failure, emit, say,
 };
 use crate::friction::Validate;
@@ -188,6 +188,11 @@ pub(super) fn gui_command(
             "no display (DISPLAY and WAYLAND_DISPLAY are unset)",
         ));
     }
+    let mut errors = Vec::new();
+    let lsl = load_lsl(&args.lsl, &mut errors);
+    if !errors.is_empty() {
+        return Err(errors.into());
+    }
     let interrupt = install_interrupt()?;
     crate::gui::run(crate::gui::Launch {
         protocol: args.protocol,
@@ -196,6 +201,8 @@ pub(super) fn gui_command(
         device: args.device,
         start,
         interrupt: Some(interrupt.clone()),
+        lsl: lsl.map(|s| s.lib),
+        lsl_lib: args.lsl.lsl_lib,
     })
     .map_err(|e| no_display(&e))?;
     match interrupt.signal() {
@@ -337,6 +344,30 @@ fn peak_memory_mib() -> Option<u64> {
     Some(kib / 1024)
 }
 
+/// liblsl, with `--lsl` (issue 34): found and checked before anything is
+/// written; not found, too old or not liblsl is an error of `--lsl`.
+fn load_lsl(args: &LslArgs, errors: &mut Vec<UserError>) -> Option<crate::lsl::Streaming> {
+    if !args.lsl {
+        return None;
+    }
+    if !(args.lsl_wait.is_finite() && args.lsl_wait >= 0.0) {
+        errors.push(UserError::new(
+            "--lsl-wait",
+            format!(
+                "must be a number of seconds, 0 or more, got {}",
+                args.lsl_wait
+            ),
+        ));
+    }
+    crate::lsl::load(args.lsl_lib.as_deref())
+        .map_err(|e| errors.push(UserError::new("--lsl", e.to_string())))
+        .ok()
+        .map(|lib| crate::lsl::Streaming {
+            lib,
+            wait_s: args.lsl_wait,
+        })
+}
+
 fn check_pace(pace: f64) -> Result<(), Vec<UserError>> {
     if pace.is_finite() && pace > 0.0 {
         Ok(())
@@ -377,10 +408,35 @@ fn check_run_args(args: &RunArgs) -> Vec<UserError> {
     errors
 }
 
+/// Says how a run a signal stopped can be resumed; its exit.
+fn interrupted_run(
+    args: &RunArgs,
+    outcome: &session::SessionOutcome,
+    signal: crate::interrupt::Signal,
+) -> Failure {
+    let stopped = if outcome.log.exists() {
+        format!(
+            "session {} of '{}' stopped with {} trials completed; the trial under way, if any, is logged as aborted ({}). Resume with: {}",
+            outcome.session,
+            args.participant,
+            outcome.completed,
+            session::INTERRUPTED,
+            resume_command(args)
+        )
+    } else {
+        "stopped before the device answered: nothing was written".to_owned()
+    };
+    say(&format!("interrupted by {}: {stopped}", signal.name()));
+    Failure {
+        code: signal.exit_code(),
+        errors: Vec::new(),
+    }
+}
+
 pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
     let mut errors = check_run_args(args);
-    let loaded = load_protocol(&args.protocol);
-    let (protocol, bytes) = match loaded {
+    let lsl = load_lsl(&args.lsl, &mut errors);
+    let (protocol, bytes) = match load_protocol(&args.protocol) {
         Ok(ok) if errors.is_empty() => ok,
         Ok(_) => return Err(errors.into()),
         Err(e) => {
@@ -397,6 +453,7 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
                 participant: args.participant.clone(),
                 out: args.out.clone(),
                 device: args.device.clone(),
+                lsl: args.lsl.clone(),
             },
             Some(crate::gui::AutoStart {
                 resume: args.resume,
@@ -419,6 +476,7 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
         device: &args.device,
         streams: true,
         population: None,
+        lsl: lsl.as_ref(),
     };
     let outcome = match &args.device {
         DeviceChoice::Simulated => {
@@ -436,7 +494,8 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
         .map_err(|e| match e {
             SessionError::Results(_)
             | SessionError::NothingToResume { .. }
-            | SessionError::Ended { .. } => e.into(),
+            | SessionError::Ended { .. }
+            | SessionError::Lsl(_) => e.into(),
             e => device_failure(&format!("--device {}", path.display()), e.to_string()),
         }),
     }?;
@@ -448,23 +507,7 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
         ));
     }
     if let Some(signal) = outcome.interrupted {
-        let stopped = if outcome.log.exists() {
-            format!(
-                "session {} of '{}' stopped with {} trials completed; the trial under way, if any, is logged as aborted ({}). Resume with: {}",
-                outcome.session,
-                args.participant,
-                outcome.completed,
-                session::INTERRUPTED,
-                resume_command(args)
-            )
-        } else {
-            "stopped before the device answered: nothing was written".to_owned()
-        };
-        say(&format!("interrupted by {}: {stopped}", signal.name()));
-        return Err(Failure {
-            code: signal.exit_code(),
-            errors: Vec::new(),
-        });
+        return Err(interrupted_run(args, &outcome, signal));
     }
     emit(&format!(
         "session {} of '{}': {} trials completed, {} aborted{} -> {}\n",
@@ -551,7 +594,14 @@ pub(super) fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
     {
         errors.extend(e);
     }
+    if args.lsl.lsl && args.pace.is_none() {
+        errors.push(UserError::new(
+            "--lsl",
+            "needs --pace: a session published on LSL runs against the clock (`--pace 1` is real time)",
+        ));
+    }
     let population = read_population(args.population.as_deref(), &mut errors);
+    let lsl = load_lsl(&args.lsl, &mut errors);
     let (protocol, bytes) = match load_protocol(&args.protocol) {
         Ok(ok) if errors.is_empty() => ok,
         Ok(_) => return Err(errors.into()),
@@ -598,6 +648,7 @@ pub(super) fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
             jobs,
             population: population.as_ref(),
             stop: Some(&interrupt),
+            lsl: lsl.as_ref(),
         },
         &|done| bar.set_position(done as u64),
     )?;

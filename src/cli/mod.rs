@@ -72,6 +72,26 @@ struct GuiArgs {
     /// `sim` (the simulated device) or a serial port's path.
     #[arg(long, default_value = "sim", value_parser = parse_device)]
     device: DeviceChoice,
+    #[command(flatten)]
+    lsl: LslArgs,
+}
+
+/// Publishing on the Lab Streaming Layer (issue 34).
+#[derive(Debug, Clone, Default, clap::Args)]
+struct LslArgs {
+    /// Publish the session on the Lab Streaming Layer: a marker stream of
+    /// its events and the device's stream (README, "Recording with LSL").
+    #[arg(long)]
+    lsl: bool,
+    /// liblsl to load (default: FRICTIONLAB_LSL_LIB, then the system's
+    /// liblsl).
+    #[arg(long, value_name = "PATH", requires = "lsl")]
+    lsl_lib: Option<PathBuf>,
+    /// Hold the session's start until a recorder (LabRecorder, any inlet)
+    /// listens to its markers, at most this long, s; markers sent before a
+    /// recorder connects are not in its recording (`run`, `simulate`).
+    #[arg(long, value_name = "S", default_value_t = 0.0, requires = "lsl")]
+    lsl_wait: f64,
 }
 
 #[derive(Debug, Subcommand)]
@@ -225,6 +245,8 @@ struct RunArgs {
     /// long, s.
     #[arg(long, default_value_t = 10.0)]
     device_timeout: f64,
+    #[command(flatten)]
+    lsl: LslArgs,
 }
 
 #[derive(Debug, clap::Args)]
@@ -288,6 +310,10 @@ struct SimulateArgs {
     /// Kept in each log header.
     #[arg(long)]
     population: Option<PathBuf>,
+    /// With `--pace`: each session publishes on the Lab Streaming Layer,
+    /// as `run --lsl` does (for trying a recording setup).
+    #[command(flatten)]
+    lsl: LslArgs,
 }
 
 #[derive(Debug, clap::Args)]
@@ -377,6 +403,7 @@ pub fn main() -> ExitCode {
                 participant: String::new(),
                 out: PathBuf::from("results"),
                 device: DeviceChoice::Simulated,
+                lsl: LslArgs::default(),
             },
             None,
         ));
@@ -483,6 +510,10 @@ impl From<SessionError> for Failure {
             SessionError::Lost { .. }
             | SessionError::NeverConnected { .. }
             | SessionError::Loop(_) => device_failure("--device", e.to_string()),
+            SessionError::Lsl(message) => Failure {
+                code: EXIT_FAILURE,
+                errors: vec![UserError::new("--lsl", message)],
+            },
         }
     }
 }

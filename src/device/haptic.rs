@@ -69,6 +69,10 @@ pub enum ToLoop {
     },
     /// Forward this message to the device (the emulator's hand drive).
     Device(Message),
+    /// From now on, queue each connected tick's sample for the session's
+    /// LSL device stream (issue 34): pushed off this thread, by the
+    /// publisher's worker.
+    Publish(crate::lsl::SampleTap),
 }
 
 /// From the loop to the session: one tick.
@@ -167,6 +171,8 @@ pub struct LoopStats {
 
 /// A running haptic loop.
 pub struct HapticLoop {
+    /// The loop's clock origin: a tick's `now_s` is the time since.
+    origin: Instant,
     to_loop: rtrb::Producer<ToLoop>,
     from_loop: rtrb::Consumer<Tick>,
     stop: Arc<AtomicBool>,
@@ -193,6 +199,7 @@ impl HapticLoop {
         let (mut outbox, from_loop) = rtrb::RingBuffer::<Tick>::new(16_384);
         let stop = Arc::new(AtomicBool::new(false));
         let flag = stop.clone();
+        let origin = Instant::now();
         let handle = std::thread::Builder::new()
             .name("haptic-loop".into())
             .spawn(move || {
@@ -205,14 +212,29 @@ impl HapticLoop {
                         ),
                     )
                     .is_ok();
-                run(&path, step, &flag, &mut inbox, &mut outbox, sched_fifo)
+                run(
+                    &path,
+                    step,
+                    &flag,
+                    &mut inbox,
+                    &mut outbox,
+                    sched_fifo,
+                    origin,
+                )
             })?;
         Ok(HapticLoop {
+            origin,
             to_loop,
             from_loop,
             stop,
             handle: Some(handle),
         })
+    }
+
+    /// The instant ticks' `now_s` count from.
+    #[must_use]
+    pub fn origin(&self) -> Instant {
+        self.origin
     }
 
     /// Sends a message to the loop (dropped if the loop is far behind).
@@ -360,6 +382,30 @@ impl OnBoardState {
     }
 }
 
+/// Hands a tick to the session and, when publishing, its sample to the LSL
+/// stream (a connected tick only).
+fn emit(outbox: &mut rtrb::Producer<Tick>, lsl: Option<&crate::lsl::SampleTap>, tick: Tick) {
+    if let Some(tap) = lsl
+        && tick.link == LinkState::Connected
+    {
+        #[expect(
+            clippy::cast_possible_truncation,
+            reason = "the stream is float32, as LSL's float channels are"
+        )]
+        tap.push(
+            tick.now_s,
+            [
+                tick.x_m as f32,
+                tick.v_m_s as f32,
+                tick.force_n as f32,
+                tick.vibration as f32,
+                tick.device_tick.map_or(0.0, |t| t as f32),
+            ],
+        );
+    }
+    let _ = outbox.push(tick);
+}
+
 /// The loop body; returns its statistics when `stop` is set.
 #[expect(
     clippy::too_many_lines,
@@ -372,6 +418,7 @@ fn run(
     inbox: &mut rtrb::Consumer<ToLoop>,
     outbox: &mut rtrb::Producer<Tick>,
     sched_fifo: bool,
+    start: Instant,
 ) -> LoopStats {
     let mut transport = Transport::new(path);
     let mut link = Link::new();
@@ -391,8 +438,8 @@ fn run(
     let (mut x, mut x_prev, mut v, mut button) = (0.0_f64, None::<f64>, 0.0_f64, false);
     let mut bytes = [0_u8; 1024];
     let mut frame = [0_u8; MAX_FRAME];
-    let start = Instant::now();
-    let mut deadline = start + period;
+    let mut deadline = Instant::now() + period;
+    let mut lsl: Option<crate::lsl::SampleTap> = None;
     while !stop.load(Ordering::Relaxed) {
         spin_sleep::sleep_until(deadline);
         let woke = Instant::now();
@@ -485,6 +532,7 @@ fn run(
                     }
                 }
                 ToLoop::Device(message) => write(message),
+                ToLoop::Publish(tap) => lsl = Some(tap),
             }
         }
 
@@ -503,20 +551,24 @@ fn run(
             let device_dt = 1.0 / f64::from(on_board.map_or(1, |o| o.loop_rate_hz.max(1)));
             for t in &telemetry {
                 let at = board.observe(t, now, device_dt);
-                let _ = outbox.push(Tick {
-                    now_s: at,
-                    x_m: t.x_m,
-                    v_m_s: t.v_m_s,
-                    force_n: t.force_n,
-                    vibration: t.vibration,
-                    button: t.flags & status::BUTTON != 0,
-                    link: link_state,
-                    render: board.device_render,
-                    selected: t.flags & status::SELECTED != 0,
-                    watchdog: t.flags & status::WATCHDOG != 0,
-                    device_tick: Some(t.tick),
-                    mode,
-                });
+                emit(
+                    outbox,
+                    lsl.as_ref(),
+                    Tick {
+                        now_s: at,
+                        x_m: t.x_m,
+                        v_m_s: t.v_m_s,
+                        force_n: t.force_n,
+                        vibration: t.vibration,
+                        button: t.flags & status::BUTTON != 0,
+                        link: link_state,
+                        render: board.device_render,
+                        selected: t.flags & status::SELECTED != 0,
+                        watchdog: t.flags & status::WATCHDOG != 0,
+                        device_tick: Some(t.tick),
+                        mode,
+                    },
+                );
             }
             // Resend only after this tick's telemetry is seen: after a stall
             // it may already show the select in effect.
@@ -533,20 +585,24 @@ fn run(
                 write(m);
             }
             if !connected {
-                let _ = outbox.push(Tick {
-                    now_s: now.max(board.last_now),
-                    x_m: x,
-                    v_m_s: 0.0,
-                    force_n: 0.0,
-                    vibration: 0.0,
-                    button: false,
-                    link: link_state,
-                    render: UNKNOWN_RENDER,
-                    selected: false,
-                    watchdog: false,
-                    device_tick: None,
-                    mode,
-                });
+                emit(
+                    outbox,
+                    lsl.as_ref(),
+                    Tick {
+                        now_s: now.max(board.last_now),
+                        x_m: x,
+                        v_m_s: 0.0,
+                        force_n: 0.0,
+                        vibration: 0.0,
+                        button: false,
+                        link: link_state,
+                        render: UNKNOWN_RENDER,
+                        selected: false,
+                        watchdog: false,
+                        device_tick: None,
+                        mode,
+                    },
+                );
             }
             continue;
         }
@@ -561,20 +617,24 @@ fn run(
         if let Some(m) = link.transmit(now, force, vibration) {
             write(m);
         }
-        let _ = outbox.push(Tick {
-            now_s: now.max(board.last_now),
-            x_m: x,
-            v_m_s: v,
-            force_n: force,
-            vibration,
-            button,
-            link: link_state,
-            render: host_render,
-            selected: std::mem::take(&mut host_selected),
-            watchdog: device_watchdog,
-            device_tick: None,
-            mode: Mode::Host,
-        });
+        emit(
+            outbox,
+            lsl.as_ref(),
+            Tick {
+                now_s: now.max(board.last_now),
+                x_m: x,
+                v_m_s: v,
+                force_n: force,
+                vibration,
+                button,
+                link: link_state,
+                render: host_render,
+                selected: std::mem::take(&mut host_selected),
+                watchdog: device_watchdog,
+                device_tick: None,
+                mode: Mode::Host,
+            },
+        );
     }
     // Zero the force on the way out.
     if let Some(m) = link.transmit(start.elapsed().as_secs_f64(), 0.0, 0.0)

@@ -58,6 +58,12 @@ pub struct Launch {
     /// Signals that end the window (issue 31): a session open is ended as
     /// [`LiveSession::interrupted`] says, then the window closes.
     pub interrupt: Option<crate::interrupt::Interrupt>,
+    /// liblsl, loaded by `--lsl`: the setup's "Publish on LSL" starts
+    /// checked (issue 34).
+    pub lsl: Option<std::sync::Arc<crate::lsl::Lsl>>,
+    /// The liblsl `--lsl-lib` named, for a session published when the box
+    /// is checked in the window.
+    pub lsl_lib: Option<PathBuf>,
 }
 
 /// A session started as the window opens.
@@ -80,6 +86,8 @@ impl Default for Launch {
             device: DeviceChoice::Simulated,
             start: None,
             interrupt: None,
+            lsl: None,
+            lsl_lib: None,
         }
     }
 }

@@ -72,6 +72,10 @@ pub(super) struct SetupPanel {
     sessions: Option<SessionsInfo>,
     /// Counterbalancing index given on the command line.
     participant_index: Option<u32>,
+    /// Publish the session on the Lab Streaming Layer (issue 34).
+    lsl: bool,
+    /// liblsl loaded by `--lsl`, or the file `--lsl-lib` named.
+    lsl_lib: (Option<std::sync::Arc<crate::lsl::Lsl>>, Option<PathBuf>),
 }
 
 impl SetupPanel {
@@ -88,6 +92,8 @@ impl SetupPanel {
             ports: crate::device::list_ports(),
             sessions: None,
             participant_index: None,
+            lsl: launch.lsl.is_some(),
+            lsl_lib: (launch.lsl, launch.lsl_lib),
         };
         match launch.protocol {
             Some(path) => {
@@ -206,6 +212,17 @@ impl SetupPanel {
         };
         let seed = self.parsed_seed()?.unwrap_or_else(rand::random::<u64>);
         let participant = self.participant.trim().to_owned();
+        let lsl = match (&self.lsl, &self.lsl_lib) {
+            (false, _) => None,
+            (true, (Some(lsl), _)) => Some(lsl.clone()),
+            (true, (None, path)) => {
+                Some(crate::lsl::load(path.as_deref()).map_err(|e| format!("error: --lsl: {e}"))?)
+            }
+        }
+        // The window does not wait for a recorder: the instructions wait
+        // for the participant, and the experimenter starts LabRecorder
+        // before pressing Start.
+        .map(|lib| crate::lsl::Streaming { lib, wait_s: 0.0 });
         let req = SessionRequest {
             protocol: &loaded.protocol,
             protocol_bytes: &loaded.bytes,
@@ -217,6 +234,7 @@ impl SetupPanel {
             device: &self.device,
             streams: true,
             population: None,
+            lsl: lsl.as_ref(),
         };
         let dir = ResultsDir::new(self.out.trim());
         LiveSession::start(&dir, &req).map_err(|e| format!("error: {e}"))
@@ -413,6 +431,10 @@ impl SetupPanel {
                     }
                 }
             });
+            ui.checkbox(
+                &mut self.lsl,
+                "Publish on LSL (markers and device stream, for LabRecorder)",
+            );
         });
     }
 

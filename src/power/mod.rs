@@ -408,6 +408,7 @@ fn run_studies(plan: &Plan<'_>, s: u32, indices: &[u64]) -> Result<Vec<StudyReco
         population: plan.header.population.as_ref(),
         jobs: 1,
         stop: None,
+        lsl: None,
     };
     let logs = (0..largest)
         .map(|i| simulate_in_memory(&sim, i))

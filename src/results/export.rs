@@ -26,16 +26,38 @@ pub const COMMON_COLUMNS: [&str; 10] = [
 
 /// The data CSV of a session, from its log. Lists (`tap_x_m`, ...) are
 /// `;`-separated; missing values are empty cells.
+///
+/// A session published on the Lab Streaming Layer (any record with LSL
+/// times) has two more columns at the end, [`LSL_COLUMNS`]: each trial's
+/// start and end on LSL's clock, to line the rows up with an XDF
+/// recording (empty for trials run without `--lsl`, as before a resume
+/// that added it).
 #[must_use]
 pub fn data_csv<K: Kinds>(log: &ReadLog<K>) -> String {
-    let mut csv = data_columns::<K>(log.header.protocol.kind()).join(",");
+    let lsl = log
+        .trials
+        .iter()
+        .any(|r| r.lsl_start_s.is_some() || r.lsl_end_s.is_some());
+    let mut columns = data_columns::<K>(log.header.protocol.kind());
+    if lsl {
+        columns.extend(LSL_COLUMNS);
+    }
+    let mut csv = columns.join(",");
     csv.push('\n');
     for r in &log.trials {
-        csv.push_str(&data_cells(&log.header, r).join(","));
+        let mut cells = data_cells(&log.header, r);
+        if lsl {
+            cells.push(super::csv::opt(r.lsl_start_s));
+            cells.push(super::csv::opt(r.lsl_end_s));
+        }
+        csv.push_str(&cells.join(","));
         csv.push('\n');
     }
     csv
 }
+
+/// The data-CSV columns of a session published on LSL (after the kind's).
+pub const LSL_COLUMNS: [&str; 2] = ["lsl_start_s", "lsl_end_s"];
 
 /// The data-CSV columns of a session of `kind`: the common ones, then the
 /// kind's.
@@ -68,14 +90,19 @@ pub fn data_cells<K: Kinds>(h: &Header<K>, r: &TrialRecord<K>) -> Vec<String> {
 }
 
 /// Writes `dataset_description.json` listing every column of every data file
-/// of the kinds present.
+/// of the kinds present, with [`LSL_COLUMNS`] when `lsl` (a session
+/// published on LSL) or when the description listed them already.
 ///
 /// # Errors
 /// Any I/O error.
 pub fn write_dataset_description<K: Kinds>(
     dir: &ResultsDir,
     kinds: &BTreeSet<&'static str>,
+    lsl: bool,
 ) -> Result<(), ResultsError> {
+    let path = dir.root().join("dataset_description.json");
+    let listed = std::fs::read_to_string(&path)
+        .is_ok_and(|text| text.contains(&format!("\"{}\"", LSL_COLUMNS[0])));
     let mut columns: Vec<&str> = COMMON_COLUMNS.to_vec();
     for kind in K::KINDS {
         if kinds.contains(kind.name) {
@@ -86,6 +113,9 @@ pub fn write_dataset_description<K: Kinds>(
                     .collect::<Vec<_>>(),
             );
         }
+    }
+    if lsl || listed {
+        columns.extend(LSL_COLUMNS);
     }
     let doc = serde_json::json!({
         "@context": "https://schema.org/",
@@ -100,11 +130,7 @@ pub fn write_dataset_description<K: Kinds>(
         "variableMeasured": columns,
     });
     let text = serde_json::to_string_pretty(&doc).unwrap_or_default() + "\n";
-    replace_file(
-        &dir.root().join("dataset_description.json"),
-        text.as_bytes(),
-        true,
-    )
+    replace_file(&path, text.as_bytes(), true)
 }
 
 /// The kinds of every session log in the folder.

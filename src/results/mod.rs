@@ -34,7 +34,8 @@ use std::path::Path;
 
 pub use atomic::replace_file;
 pub use export::{
-    COMMON_COLUMNS, data_cells, data_columns, data_csv, kinds_present, write_dataset_description,
+    COMMON_COLUMNS, LSL_COLUMNS, data_cells, data_columns, data_csv, kinds_present,
+    write_dataset_description,
 };
 pub use folder::{MAX_ID_CHARS, ResultsDir, SessionFiles, check_participant, file_key};
 pub use lock::{FolderLock, Holder, lock_file, open_elsewhere};

@@ -72,6 +72,9 @@ pub enum LogLine<K: Kinds> {
     },
     /// The haptic loop's timing and link statistics (device sessions).
     Loop(crate::device::haptic::LoopStats),
+    /// What this run published on the Lab Streaming Layer (`--lsl`):
+    /// counts, drops and latencies (issue 34).
+    Lsl(crate::lsl::LslStats),
     /// An experimenter's note.
     Note {
         /// The text.
@@ -386,6 +389,7 @@ pub(super) fn parse_log_lines<K: Kinds>(
                     LogLine::Resumed { .. }
                     | LogLine::Note { .. }
                     | LogLine::Loop(_)
+                    | LogLine::Lsl(_)
                     | LogLine::Interrupted { .. } => {}
                 }
                 valid_len = next;

@@ -80,6 +80,16 @@ impl Port {
         Some((tick, pressed))
     }
 
+    /// Has the loop queue each connected tick's sample for LSL.
+    pub(super) fn publish(&mut self, tap: crate::lsl::SampleTap) {
+        self.haptic.send(ToLoop::Publish(tap));
+    }
+
+    /// The instant the loop's ticks count time from.
+    pub(super) fn origin(&self) -> std::time::Instant {
+        self.haptic.origin()
+    }
+
     /// How `tick`'s render was stepped.
     pub(super) fn how(&self, tick: &Tick) -> super::renders::How {
         use crate::protocol::engine::RenderMode;
@@ -190,6 +200,15 @@ impl Device {
     }
 
     /// Whether this is the simulated device.
+    /// The instant a port's ticks count time from (none for the simulated
+    /// device, whose time is the session's).
+    pub(super) fn origin(&self) -> Option<std::time::Instant> {
+        match self {
+            Device::Port(port) => Some(port.origin()),
+            _ => None,
+        }
+    }
+
     pub(super) fn is_sim(&self) -> bool {
         matches!(self, Device::Sim { .. })
     }

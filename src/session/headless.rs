@@ -107,7 +107,16 @@ pub fn run_simulated(
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<SessionOutcome, SessionError> {
     let planned = super::plan(dir, req, <SimParticipant as Responder>::LABEL)?;
-    run_planned(dir, planned, req.pace, sim_participant, stop, progress)
+    let mut session = Session::from_planned(
+        dir,
+        planned,
+        &super::DeviceChoice::Simulated,
+        sim_participant,
+    )?;
+    if let Some(lsl) = req.lsl {
+        session.publish(lsl)?;
+    }
+    drive(session, req.pace, stop, progress).map(|(outcome, _)| outcome)
 }
 
 /// The signal `stop` holds, if any; ends `session`'s run for it.
@@ -155,6 +164,16 @@ fn drive<R: Responder>(
         wall: Instant::now(),
         virtual_start: session.now_s(),
     };
+    // Published on LSL, virtual time is held to LSL's clock before every
+    // tick (`Session::step`, not every 64th tick here), so each event and
+    // sample is handled just after its timestamp.
+    let on_lsl = match (session.lsl_now(), pace) {
+        (Some(now), Some(pace)) => {
+            session.lsl_pace(pacer.virtual_start, now, pace);
+            true
+        }
+        _ => false,
+    };
     let (mut ticks, mut seen) = (0_u64, 0);
     while session.phase() != Phase::Finished {
         session.step()?;
@@ -164,7 +183,9 @@ fn drive<R: Responder>(
             if let Some(signal) = stopped(&mut session, stop)? {
                 return Ok((session.outcome().interrupted_by(signal), session));
             }
-            pacer.wait(session.now_s());
+            if !on_lsl {
+                pacer.wait(session.now_s());
+            }
         }
     }
     Ok((session.outcome(), session))
@@ -190,6 +211,7 @@ pub fn simulate_in_memory(sim: &Simulation<'_>, i: u32) -> Result<ReadLog, Sessi
         device: &super::DeviceChoice::Simulated,
         streams: false,
         population: sim.population,
+        lsl: None,
     };
     let (header, source) =
         super::open::new_session(&req, 1, i, <SimParticipant as Responder>::LABEL);
@@ -219,6 +241,13 @@ pub fn run_device<R: Responder>(
 ) -> Result<SessionOutcome, SessionError> {
     let mut session = Session::begin(dir, req, responder)?;
     let wall = Instant::now();
+    // Published on LSL, ticks are read every 0.2 ms rather than every
+    // 1 ms: a marker's event is handled within that of its tick.
+    let poll = if req.lsl.is_some() {
+        Duration::from_micros(200)
+    } else {
+        Duration::from_millis(1)
+    };
     let mut seen = 0;
     loop {
         session.poll_device()?;
@@ -240,7 +269,7 @@ pub fn run_device<R: Responder>(
                 completed: session.completed(),
             });
         }
-        std::thread::sleep(Duration::from_millis(1));
+        std::thread::sleep(poll);
     }
 }
 
@@ -285,6 +314,8 @@ pub struct Simulation<'a> {
     /// A signal here ends every running session ([`run_planned`]) and
     /// starts no new one.
     pub stop: Option<&'a Interrupt>,
+    /// Publish each session on the Lab Streaming Layer (with `pace`).
+    pub lsl: Option<&'a crate::lsl::Streaming>,
 }
 
 /// The id of simulated participant `i` (0-based): `sim-001`, ...
@@ -331,6 +362,7 @@ pub fn simulate_participants(
             device: &super::DeviceChoice::Simulated,
             streams: sim.streams,
             population: sim.population,
+            lsl: sim.lsl,
         };
         let mut reported = 0;
         run_simulated(dir, &req, sim.stop, &mut |trial, _| {

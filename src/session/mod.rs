@@ -20,7 +20,16 @@
 //!    write a record), the responder reacting to each; then the next
 //!    pending input goes to the engine; repeat until nothing is pending.
 //!    A record is on disk (stream, log line fsync'd, CSV) before
-//!    `Recorded` queues, so the next trial starts only after it.
+//!    `Recorded` queues, so the next trial starts only after it. On a
+//!    port, `Recorded` also waits until the ticks the loop reported
+//!    during the write are read, so the next trial starts at the present
+//!    tick (its exploration is not shortened by the write, and its
+//!    `trial_start` on LSL is when its stimulus is sent).
+//!
+//! # Lab Streaming Layer
+//! With [`Session::publish`] ([`lsl`]), each event is also a marker,
+//! stamped with its session time on LSL's clock, and each device sample
+//! goes to the device stream (a port's from its haptic loop's thread).
 //!
 //! # One session clock
 //! Session time `t` (s) starts at 0 for a new session and at the last
@@ -52,6 +61,7 @@
 
 pub mod device;
 pub mod headless;
+pub mod lsl;
 pub mod open;
 pub mod record;
 mod renders;
@@ -142,6 +152,9 @@ pub enum SessionError {
     /// The haptic loop could not start.
     #[error("cannot start the haptic loop: {0}")]
     Loop(std::io::Error),
+    /// The session could not be published on the Lab Streaming Layer.
+    #[error("{0}")]
+    Lsl(String),
 }
 
 /// An input waiting for the engine, or the engine's due timeout.
@@ -182,6 +195,13 @@ pub struct Session<R: Responder> {
     /// a render takes effect at the next.
     marks: RowMarks,
     sim_selected: bool,
+    /// Publishing on the Lab Streaming Layer ([`lsl`]).
+    lsl: Option<Box<lsl::Tap>>,
+    /// A port's ticks that came while a record was written wait to be
+    /// read before the next trial starts ([`Session::poll_device`]).
+    catching_up: bool,
+    /// The plan's loop rate (its fastest model's), Hz.
+    loop_rate_hz: f64,
 }
 
 impl<R: Responder> Session<R> {
@@ -199,7 +219,11 @@ impl<R: Responder> Session<R> {
         responder: impl FnOnce(&Header) -> R,
     ) -> Result<Self, SessionError> {
         let planned = open::plan(dir, req, R::LABEL)?;
-        Session::from_planned(dir, planned, req.device, responder)
+        let mut session = Session::from_planned(dir, planned, req.device, responder)?;
+        if let Some(lsl) = req.lsl {
+            session.publish(lsl)?;
+        }
+        Ok(session)
     }
 
     /// Starts a session already planned ([`open::plan`], perhaps with
@@ -359,6 +383,9 @@ impl<R: Responder> Session<R> {
             marks: RowMarks::default(),
             sim_selected: false,
             row_render: (0, how),
+            lsl: None,
+            catching_up: false,
+            loop_rate_hz: rate_hz,
         })
     }
 
@@ -378,6 +405,10 @@ impl<R: Responder> Session<R> {
     pub fn step(&mut self) -> Result<(), ResultsError> {
         self.settle()?;
         if self.phase == Phase::Running {
+            if self.lsl.is_some() {
+                // Paced on LSL's clock: the tick waits for its time.
+                self.lsl_hold();
+            }
             self.tick_sim();
         }
         Ok(())
@@ -420,7 +451,9 @@ impl<R: Responder> Session<R> {
                 self.settle()?;
                 continue;
             }
-            self.lost_since = None;
+            if self.lost_since.take().is_some() {
+                lsl::device_lost(self.lsl.as_deref_mut(), self.t, false);
+            }
             if matches!(self.log, Log::Planned { .. }) {
                 // The session starts (its files are written) once the
                 // device answers.
@@ -446,6 +479,9 @@ impl<R: Responder> Session<R> {
             }
             self.observe();
         }
+        // Every tick the loop has reported is read: a trial waiting for
+        // the present (after a record's write) may start.
+        self.catching_up = false;
         self.settle()
     }
 
@@ -465,6 +501,9 @@ impl<R: Responder> Session<R> {
             return Ok(());
         }
         let end = self.t + step;
+        if self.device.is_sim() {
+            self.lsl_frame(end);
+        }
         loop {
             self.settle()?;
             match &self.device {
@@ -489,6 +528,9 @@ impl<R: Responder> Session<R> {
             let index = self.renders.row(render, how);
             open.streams.push(self.t, &self.sample, index, self.marks);
         }
+        if self.lsl.is_some() {
+            self.lsl_sample();
+        }
         if let Some(trace) = &mut self.trace {
             trace.observe(self.t, &self.sample);
         }
@@ -502,6 +544,10 @@ impl<R: Responder> Session<R> {
 
     /// The one lost-device rule (module docs).
     fn lost(&mut self) {
+        if self.lost_since.is_none() && matches!(self.log, Log::Open(_)) {
+            // Lost after it had answered (not still connecting).
+            lsl::device_lost(self.lsl.as_deref_mut(), self.t, true);
+        }
         self.lost_since.get_or_insert(self.t);
         if self.engine.in_trial() {
             self.interrupt_trial("device lost");
@@ -576,16 +622,25 @@ impl<R: Responder> Session<R> {
             let flows = self.phase == Phase::Running && self.device.connected();
             let next = match front {
                 Pending::Input(Input::Abort { .. }) => self.pending.pop_front(),
+                Pending::Input(Input::Recorded) if self.catching_up => None,
                 _ if flows => self.pending.pop_front(),
                 _ => None,
             };
             match next {
                 None => return Ok(()),
-                Some(Pending::Input(input)) => self.engine.handle(self.t, input),
+                Some(Pending::Input(input)) => {
+                    if self.lsl.is_some() {
+                        self.lsl_input(&input);
+                    }
+                    self.engine.handle(self.t, input);
+                }
                 Some(Pending::Timeout) => {
                     self.timeout_queued = false;
                     self.engine.handle_timeout(self.t);
                 }
+            }
+            if self.lsl.is_some() {
+                self.lsl_after_engine();
             }
             self.due = self.engine.poll_timeout();
         }
@@ -593,13 +648,27 @@ impl<R: Responder> Session<R> {
 
     fn act(&mut self, action: &Action) -> Result<(), ResultsError> {
         self.view.follow(action);
+        if self.lsl.is_some() && !matches!(action, Action::Render(_)) {
+            self.lsl_action(action, None);
+        }
         match action {
-            Action::Render(model) => self.render(model.as_ref()),
+            Action::Render(model) => {
+                let render = self.render(model.as_ref());
+                if self.lsl.is_some() {
+                    self.lsl_action(action, Some(render));
+                }
+            }
             Action::Physical(model) => self.device.set_physical(model.as_ref()),
             Action::Record(record) => {
                 let mut record = record.clone();
                 record.rendering = self.renders.take();
+                self.lsl_record(&mut record);
                 self.log.write_record(&record)?;
+                self.lsl_written();
+                // On a port the loop ran on while the record was written:
+                // the next trial starts once those ticks are read, at the
+                // present, not at the tick before the write.
+                self.catching_up = matches!(self.device, Device::Port(_));
                 self.records += 1;
                 self.last_record = Some(record.trial);
                 if !record.requeued {
@@ -609,6 +678,13 @@ impl<R: Responder> Session<R> {
             }
             Action::Finished => {
                 self.stop_device()?;
+                let outcome = self.outcome();
+                let (completed, aborted) = (outcome.completed, outcome.aborted);
+                self.lsl_event("session_end", |m| {
+                    m.insert("completed".into(), completed.into());
+                    m.insert("aborted".into(), aborted.into());
+                });
+                self.lsl_close()?;
                 self.log.write_end()?;
                 self.phase = Phase::Finished;
                 return Ok(());
@@ -669,6 +745,7 @@ impl<R: Responder> Session<R> {
             return Ok(());
         }
         self.phase = Phase::Paused;
+        self.lsl_event("pause", |_| {});
         self.interrupt("paused by the experimenter")
     }
 
@@ -681,6 +758,7 @@ impl<R: Responder> Session<R> {
             return Ok(());
         }
         self.phase = Phase::Running;
+        self.lsl_event("resume", |_| {});
         self.settle()
     }
 
@@ -719,6 +797,17 @@ impl<R: Responder> Session<R> {
         self.phase = Phase::Paused;
         self.interrupt(reason)?;
         self.stop_device()?;
+        let signal = match &line {
+            Some(LogLine::Interrupted { signal }) => Some(signal.clone()),
+            _ => None,
+        };
+        self.lsl_event("session_stop", |m| {
+            m.insert("reason".into(), reason.into());
+            if let Some(signal) = signal {
+                m.insert("signal".into(), signal.into());
+            }
+        });
+        self.lsl_close()?;
         if let (Some(line), Some(open)) = (line, self.log.opened()) {
             open.log.append(&line)?;
         }
@@ -732,18 +821,19 @@ impl<R: Responder> Session<R> {
             self.interrupt_trial(reason);
             self.settle()?;
         }
-        self.render(None);
+        let _ = self.render(None);
         Ok(())
     }
 
     /// Renders `model` from now on, numbered (see [`renders`]).
-    fn render(&mut self, model: Option<&ModelParams>) {
+    fn render(&mut self, model: Option<&ModelParams>) -> u32 {
         let render = self.renders.send(model.cloned());
         self.device.render(render, model);
         self.sim_selected = self.device.is_sim();
         if let Some(how) = self.device.sim_how() {
             self.row_render.1 = how;
         }
+        render
     }
 
     /// Appends the experimenter's note to the session log (held until the
@@ -752,6 +842,9 @@ impl<R: Responder> Session<R> {
     /// # Errors
     /// I/O on the log.
     pub fn note(&mut self, text: &str) -> Result<(), ResultsError> {
+        self.lsl_event("note", |m| {
+            m.insert("text".into(), text.into());
+        });
         match &mut self.log {
             Log::Open(open) => open.log.append(&LogLine::Note {
                 text: text.to_owned(),

@@ -59,6 +59,9 @@ pub struct SessionRequest<'a> {
     pub pace: Option<f64>,
     /// The device.
     pub device: &'a DeviceChoice,
+    /// Publish the session on the Lab Streaming Layer with this liblsl
+    /// (`--lsl`, issue 34).
+    pub lsl: Option<&'a crate::lsl::Streaming>,
     /// Record each trial's device stream (`streams/`, see [`StreamRecorder`]).
     pub streams: bool,
     /// A simulated participant's population other than the default (kept
@@ -74,6 +77,9 @@ pub struct Planned {
     pub source: Arc<dyn TrialSource<Registry>>,
     opening: Opening,
     streams: bool,
+    /// Published on LSL: the data CSV gains [`crate::results::LSL_COLUMNS`],
+    /// and the folder's description lists them.
+    lsl: bool,
 }
 
 #[derive(Debug)]
@@ -154,6 +160,7 @@ pub fn plan(
                 lock: Some(lock),
             },
             streams: req.streams,
+            lsl: req.lsl.is_some(),
         });
     }
     let sessions = dir.free_sessions(id, req.participant)?;
@@ -170,6 +177,7 @@ pub fn plan(
             files,
         },
         streams: req.streams,
+        lsl: req.lsl.is_some(),
     })
 }
 
@@ -277,6 +285,13 @@ impl Planned {
                 // line and its CSV rewrite left the CSV a trial short,
                 // which no later trial would mend after the last one.
                 replace_file(&files.csv, data_csv(read).as_bytes(), false)?;
+                if self.lsl {
+                    write_dataset_description::<Registry>(
+                        dir,
+                        &kinds_present::<Registry>(dir),
+                        true,
+                    )?;
+                }
                 Ok(OpenLog {
                     log,
                     streams: StreamRecorder::new(dir, &read.header, self.streams),
@@ -303,7 +318,11 @@ impl Planned {
                     torn_bytes: 0,
                 };
                 replace_file(&files.csv, data_csv(&read).as_bytes(), false)?;
-                write_dataset_description::<Registry>(dir, &kinds_present::<Registry>(dir))?;
+                write_dataset_description::<Registry>(
+                    dir,
+                    &kinds_present::<Registry>(dir),
+                    self.lsl,
+                )?;
                 Ok(OpenLog {
                     log,
                     streams: StreamRecorder::new(dir, &read.header, self.streams),

@@ -199,3 +199,30 @@ pub fn session_logs(results: &std::path::Path) -> Vec<std::path::PathBuf> {
     logs.sort();
     logs
 }
+
+/// The venv's Python and the liblsl its pylsl ships, if installed.
+pub fn pylsl() -> Option<(std::path::PathBuf, std::path::PathBuf)> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let venv = std::env::var_os("FRICTIONLAB_TEST_VENV")
+        .map_or_else(|| root.join("target/lsl-venv"), std::path::PathBuf::from);
+    let python = venv.join("bin/python");
+    let lib = std::fs::read_dir(venv.join("lib"))
+        .ok()?
+        .filter_map(Result::ok)
+        .map(|d| d.path().join("site-packages/pylsl/lib/liblsl.so"))
+        .find(|p| p.exists())?;
+    python.exists().then_some((python, lib))
+}
+
+/// pylsl, or a skip (outside CI) or a failure (under CI).
+pub fn need_pylsl() -> Option<(std::path::PathBuf, std::path::PathBuf)> {
+    let found = pylsl();
+    assert!(
+        found.is_some() || std::env::var_os("CI").is_none(),
+        "pylsl is not installed in target/lsl-venv: .ci/run installs it"
+    );
+    if found.is_none() {
+        eprintln!("skipped: pylsl is not installed in target/lsl-venv (.ci/run installs it)");
+    }
+    found
+}

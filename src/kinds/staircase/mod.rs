@@ -373,6 +373,7 @@ mod tests {
             device: &DeviceChoice::Simulated,
             streams: false,
             population: None,
+            lsl: None,
         };
         let planned = plan_session(&dir, &req, Observer::LABEL).unwrap();
         run_planned(&dir, planned, pace, |_| Observer, None, &mut |_, _| {}).unwrap();

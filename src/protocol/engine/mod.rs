@@ -459,6 +459,8 @@ impl<K: Kinds> Engine<K> {
             ended_s: now,
             data,
             rendering: Vec::new(),
+            lsl_start_s: None,
+            lsl_end_s: None,
         };
         self.history.push(record.clone());
         self.out.push_back(Action::Render(None));

@@ -87,6 +87,14 @@ pub struct TrialRecord<K: Kinds> {
     /// logs from before it existed.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub rendering: Vec<RenderEntry>,
+    /// LSL time (`lsl_local_clock`) of the trial's start, s: the
+    /// timestamp of its `trial_start` marker. Only in a session published
+    /// on the Lab Streaming Layer (`--lsl`); filled by the session.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lsl_start_s: Option<f64>,
+    /// LSL time of its end, s: the timestamp of its `trial_end` marker.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lsl_end_s: Option<f64>,
 }
 
 /// Who rendered a model: the simulated apparatus, the host's haptic loop
