@@ -278,7 +278,7 @@ fn order(p: &Protocol, seed: u64, participant: u32) -> Vec<String> {
         .trials
         .iter()
         .map(|t| match &t.spec {
-            TrialSpec::MagnitudeEstimation(m) => format!("{}:{}:{}", m.display, m.mu_s, m.mu_k),
+            TrialSpec::MagnitudeEstimation(m) => format!("{}:{:?}", m.display, m.stimulus),
             TrialSpec::Fitts(f) => format!("{}:{}:{}", f.condition, f.amplitude_m, f.width_m),
             TrialSpec::PairedComparison(p) => format!("{}>{}", p.first.id, p.second.id),
             TrialSpec::Discrimination(d) => format!("{}:{}", d.track, d.difference),

@@ -282,6 +282,34 @@ impl Rows {
         self.frame.column(column).ok().and_then(|c| c.str().ok())
     }
 
+    /// The rows whose `column` is filled (`filled`), or empty or missing
+    /// (`!filled`); the rows that did not complete alike.
+    ///
+    /// # Errors
+    /// Polars failed to filter.
+    pub fn where_filled(&self, column: &str, filled: bool) -> Result<Rows, Problem> {
+        let pick = |frame: &DataFrame| -> PolarsResult<DataFrame> {
+            let mask: BooleanChunked = match frame.column(column).ok().and_then(|c| c.str().ok()) {
+                Some(c) => c
+                    .iter()
+                    .map(|v| v.is_some_and(|t| !t.trim().is_empty()) == filled)
+                    .collect(),
+                None => std::iter::repeat_n(!filled, frame.height()).collect(),
+            };
+            frame.filter(&mask)
+        };
+        let fail = |e: PolarsError| Problem::new(column, e.to_string());
+        Ok(Rows {
+            frame: pick(&self.frame).map_err(fail)?,
+            aborted: if self.aborted.height() == 0 {
+                self.aborted.clone()
+            } else {
+                pick(&self.aborted).map_err(fail)?
+            },
+            files: self.files.clone(),
+        })
+    }
+
     /// The text of `column` at `row`.
     #[must_use]
     pub fn text(&self, column: &str, row: usize) -> &str {

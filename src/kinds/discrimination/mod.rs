@@ -352,35 +352,7 @@ pub struct TwoIntervals {
     trial: DiscriminationTrial,
 }
 
-/// `model` with `parameter` (a dotted field path) set to `value`; `None`
-/// if the model has no such numeric field.
-#[must_use]
-pub fn with_parameter(model: &ModelParams, parameter: &str, value: f64) -> Option<ModelParams> {
-    let mut v = serde_json::to_value(model).ok()?;
-    let mut at = &mut v;
-    for key in parameter.split('.') {
-        if key == "model" {
-            return None;
-        }
-        at = at.as_object_mut()?.get_mut(key)?;
-    }
-    if !at.is_number() {
-        return None;
-    }
-    *at = serde_json::Number::from_f64(value).map(Value::Number)?;
-    serde_json::from_value(v).ok()
-}
-
-/// The value of `parameter` in `model`.
-#[must_use]
-pub fn parameter_value(model: &ModelParams, parameter: &str) -> Option<f64> {
-    let v = serde_json::to_value(model).ok()?;
-    let mut at = &v;
-    for key in parameter.split('.') {
-        at = at.as_object()?.get(key)?;
-    }
-    at.as_f64()
-}
+pub use crate::friction::{parameter_value, with_parameter};
 
 /// Checks the adaptive method; returns the smallest and largest difference
 /// it may present.

@@ -2,6 +2,12 @@
 //! random order within a set per display; the participant types any
 //! positive number for how strong the friction felt.
 //!
+//! Two forms of design (issue 35): seed 001's `sets` (a stick-slip model
+//! per display, stimuli given by their `mu_s` and `mu_k`), or a `scaling`:
+//! one parameter of any model (a viscosity, a Coulomb level, a stick-slip
+//! amplitude) at a list of levels, whose power law the analysis fits
+//! (Stevens' exponent). Seed 001's form logs and writes what it always did.
+//!
 //! Live: the stimulus is rendered until the exploration time is up (then
 //! the question is asked), and any time until then the participant may
 //! type a number.
@@ -13,7 +19,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use crate::analysis::{AnalysisEntry, KindAnalysis, Section, designs_of};
-use crate::friction::{ModelParams, NakanoParams, Validate};
+use crate::friction::{ModelParams, NakanoParams, Validate, parameter_value, with_parameter};
 use crate::protocol::check::Checks;
 use crate::protocol::engine::{Action, Answer, Input, Question, Screen};
 use crate::protocol::kind::{Block, Exploration, Holds, Kinds, LiveTrial, Next, StudyKind};
@@ -21,19 +27,41 @@ use crate::protocol::load::Walk;
 
 pub mod analysis;
 pub mod report;
+pub mod scaling;
 
 /// The magnitude-estimation kind.
 #[derive(Debug)]
 pub struct Magnitude;
 
-/// Seed 001's magnitude estimation.
+/// A magnitude estimation: seed 001's sets, or a scaling of one parameter.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MagnitudeDesign {
     /// Longest exploration of a stimulus before the answer, s.
     pub exploration_s: f64,
-    /// One set (block) per display.
+    /// Seed 001's form: one set (block) per display.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub sets: Vec<MagnitudeSet>,
+    /// The generic form (instead of `sets`): one parameter of a model at
+    /// each of its levels, one block.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scaling: Option<Scaling>,
+}
+
+/// One parameter of a model, scaled over levels.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Scaling {
+    /// Display name (what is judged: `viscosity`), logged as `display`.
+    pub display: String,
+    /// The model; its `parameter` is set to each level.
+    pub reference: ModelParams,
+    /// The parameter scaled: a field of the model object (`damping_n_s_m`;
+    /// nested fields joined by dots).
+    pub parameter: String,
+    /// Its levels, in the parameter's units, each presented `repetitions`
+    /// times (the protocol's), in random order.
+    pub levels: Vec<f64>,
 }
 
 /// One display's set of stimuli.
@@ -64,14 +92,21 @@ pub struct Stimulus {
 pub struct MagnitudeTrial {
     /// Display name.
     pub display: String,
-    /// The rendered model, with the stimulus's coefficients.
+    /// The rendered model, with the stimulus's coefficients (or level).
     pub model: ModelParams,
-    /// Static coefficient.
-    pub mu_s: f64,
-    /// Kinetic coefficient.
-    pub mu_k: f64,
+    /// What the stimulus is.
+    pub stimulus: Level,
     /// Longest exploration, s.
     pub exploration_s: f64,
+}
+
+/// A stimulus: seed 001's coefficients, or a scaling's level.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Level {
+    /// Static and kinetic coefficients.
+    Coefficients(Stimulus),
+    /// The scaled parameter (its name) at this value.
+    Scaled(String, f64),
 }
 
 /// What a magnitude-estimation trial logs.
@@ -80,16 +115,22 @@ pub struct MagnitudeTrial {
 pub struct MagnitudeData {
     /// Display name.
     pub display: String,
-    /// Static coefficient.
-    pub mu_s: f64,
-    /// Kinetic coefficient.
-    pub mu_k: f64,
-    /// mu_s - mu_k.
-    pub delta_mu: f64,
+    /// Static coefficient (seed 001's form).
+    pub mu_s: Option<f64>,
+    /// Kinetic coefficient (seed 001's form).
+    pub mu_k: Option<f64>,
+    /// mu_s - mu_k (seed 001's form).
+    pub delta_mu: Option<f64>,
     /// The number given.
     pub magnitude: Option<f64>,
     /// Time from the start of the stimulus to the answer, s.
     pub response_time_s: Option<f64>,
+    /// The parameter scaled (the generic form).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub parameter: Option<String>,
+    /// Its value in this trial, in its units (the generic form).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub level: Option<f64>,
 }
 
 /// The set's model with the stimulus's coefficients.
@@ -104,6 +145,52 @@ pub fn stimulus_model(model: &ModelParams, s: Stimulus) -> ModelParams {
         ModelParams::StickSlipTactile(p) => ModelParams::StickSlipTactile(with(p)),
         ModelParams::StickSlipForce(p) => ModelParams::StickSlipForce(with(p)),
         other => other.clone(),
+    }
+}
+
+/// Checks a scaling: the reference has the parameter, and every level is
+/// a valid value of it.
+fn check_scaling(sc: &Scaling, c: &mut Checks) {
+    if sc.display.trim().is_empty() {
+        c.err("scaling.display", "must not be empty");
+    }
+    if parameter_value(&sc.reference, &sc.parameter).is_none() {
+        c.err(
+            "scaling.parameter",
+            format!(
+                "the reference model ('{}') has no numeric parameter '{}'",
+                sc.reference.name(),
+                sc.parameter
+            ),
+        );
+        return;
+    }
+    if sc.levels.len() < 2 {
+        c.err(
+            "scaling.levels",
+            format!(
+                "at least 2 levels are needed for a power law, got {}",
+                sc.levels.len()
+            ),
+        );
+    }
+    for (i, &level) in sc.levels.iter().enumerate() {
+        let path = format!("scaling.levels[{i}]");
+        if !(level.is_finite() && level > 0.0) {
+            c.err(
+                &path,
+                format!("must be a number greater than 0 (a power law is fitted on its logarithm), got {level}"),
+            );
+            continue;
+        }
+        match with_parameter(&sc.reference, &sc.parameter, level) {
+            None => c.err(&path, format!("{level} is not a valid value of '{}'", sc.parameter)),
+            Some(m) => {
+                for e in m.validate() {
+                    c.err(&path, format!("{}: {}", e.place, e.message));
+                }
+            }
+        }
     }
 }
 
@@ -131,7 +218,7 @@ pub fn parse_magnitude(text: &str) -> Result<f64, String> {
 /// if none.
 fn display_order<K: Holds<Magnitude>>(designs: &[K::Design]) -> Vec<String> {
     designs_of::<Magnitude, K>(designs)
-        .next()
+        .find(|d| !d.sets.is_empty())
         .map(|d| d.sets.iter().map(|s| s.display.clone()).collect())
         .unwrap_or_default()
 }
@@ -149,11 +236,46 @@ impl StudyKind for Magnitude {
         "delta_mu",
         "magnitude",
         "response_time_s",
+        "parameter",
+        "level",
     ];
 
     fn read(w: &mut Walk, v: &Value, path: &str) -> Option<MagnitudeDesign> {
-        let m = w.object(v, path, &["kind", "exploration_s", "sets"])?;
+        let m = w.object(v, path, &["kind", "exploration_s", "sets", "scaling"])?;
         let exploration_s = w.required(m, "exploration_s", path);
+        let scaling = match m.get("scaling") {
+            None => Some(None),
+            Some(v) => {
+                let p = crate::protocol::load::join(path, "scaling");
+                w.object(v, &p, &["display", "reference", "parameter", "levels"])
+                    .and_then(|s| {
+                        let display = w.required::<String>(s, "display", &p);
+                        let reference = w.model_field(s, "reference", &p);
+                        let parameter = w.required::<String>(s, "parameter", &p);
+                        let levels = w.required::<Vec<f64>>(s, "levels", &p);
+                        Some(Some(Scaling {
+                            display: display?,
+                            reference: reference?,
+                            parameter: parameter?,
+                            levels: levels?,
+                        }))
+                    })
+            }
+        };
+        if m.contains_key("scaling") == m.contains_key("sets") {
+            w.err(
+                crate::protocol::load::join(path, "sets"),
+                "give either `sets` (seed 001's form) or `scaling` (one parameter at its levels), not both or neither",
+            );
+            return None;
+        }
+        if scaling.as_ref().is_some_and(Option::is_some) {
+            return Some(MagnitudeDesign {
+                exploration_s: exploration_s?,
+                sets: Vec::new(),
+                scaling: scaling?,
+            });
+        }
         let sets = w.list(m, "sets", path, |w, v, p| {
             let m = w.object(v, p, &["display", "model", "stimuli"])?;
             let display = w.required::<String>(m, "display", p);
@@ -168,11 +290,16 @@ impl StudyKind for Magnitude {
         Some(MagnitudeDesign {
             exploration_s: exploration_s?,
             sets: sets?,
+            scaling: scaling?,
         })
     }
 
     fn check(d: &MagnitudeDesign, c: &mut Checks) {
         c.positive("exploration_s", d.exploration_s);
+        if let Some(scaling) = &d.scaling {
+            check_scaling(scaling, c);
+            return;
+        }
         if d.sets.is_empty() {
             c.err("sets", "no sets: the protocol has zero trials");
         }
@@ -202,8 +329,26 @@ impl StudyKind for Magnitude {
         }
     }
 
-    /// One block per set, named by its display.
+    /// One block per set, named by its display; a scaling is one block.
     fn blocks(d: &MagnitudeDesign) -> Vec<Block<MagnitudeTrial>> {
+        if let Some(sc) = &d.scaling {
+            return vec![Block {
+                name: sc.display.clone(),
+                practice: false,
+                trials: sc
+                    .levels
+                    .iter()
+                    .filter_map(|&level| {
+                        Some(MagnitudeTrial {
+                            display: sc.display.clone(),
+                            model: with_parameter(&sc.reference, &sc.parameter, level)?,
+                            stimulus: Level::Scaled(sc.parameter.clone(), level),
+                            exploration_s: d.exploration_s,
+                        })
+                    })
+                    .collect(),
+            }];
+        }
         d.sets
             .iter()
             .map(|set| Block {
@@ -215,8 +360,7 @@ impl StudyKind for Magnitude {
                     .map(|&s| MagnitudeTrial {
                         display: set.display.clone(),
                         model: stimulus_model(&set.model, s),
-                        mu_s: s.mu_s,
-                        mu_k: s.mu_k,
+                        stimulus: Level::Coefficients(s),
                         exploration_s: d.exploration_s,
                     })
                     .collect(),
@@ -240,8 +384,7 @@ impl StudyKind for Magnitude {
         out.push_back(Action::Show(Screen::Explore { until_s: until }));
         Explore {
             display: trial.display.clone(),
-            mu_s: trial.mu_s,
-            mu_k: trial.mu_k,
+            stimulus: trial.stimulus.clone(),
             time: Exploration::until(until),
             magnitude: None,
         }
@@ -251,11 +394,13 @@ impl StudyKind for Magnitude {
         use crate::results::csv::{opt, text};
         vec![
             text(&d.display),
-            d.mu_s.to_string(),
-            d.mu_k.to_string(),
-            d.delta_mu.to_string(),
+            opt(d.mu_s),
+            opt(d.mu_k),
+            opt(d.delta_mu),
             opt(d.magnitude),
             opt(d.response_time_s),
+            d.parameter.as_deref().map(text).unwrap_or_default(),
+            opt(d.level),
         ]
     }
 }
@@ -264,8 +409,7 @@ impl StudyKind for Magnitude {
 #[derive(Debug, Clone)]
 pub struct Explore {
     display: String,
-    mu_s: f64,
-    mu_k: f64,
+    stimulus: Level,
     time: Exploration,
     magnitude: Option<f64>,
 }
@@ -304,13 +448,19 @@ impl LiveTrial for Explore {
     }
 
     fn data(&self, started: f64, now: f64, _completed: bool) -> MagnitudeData {
+        let (coefficients, scaled) = match &self.stimulus {
+            Level::Coefficients(s) => (Some(*s), None),
+            Level::Scaled(parameter, level) => (None, Some((parameter.clone(), *level))),
+        };
         MagnitudeData {
             display: self.display.clone(),
-            mu_s: self.mu_s,
-            mu_k: self.mu_k,
-            delta_mu: self.mu_s - self.mu_k,
+            mu_s: coefficients.map(|s| s.mu_s),
+            mu_k: coefficients.map(|s| s.mu_k),
+            delta_mu: coefficients.map(|s| s.mu_s - s.mu_k),
             magnitude: self.magnitude,
             response_time_s: self.magnitude.map(|_| now - started),
+            parameter: scaled.as_ref().map(|(p, _)| p.clone()),
+            level: scaled.map(|(_, l)| l),
         }
     }
 }
@@ -319,17 +469,40 @@ impl KindAnalysis for Magnitude {
     fn analysis<K: Holds<Self>>() -> Option<AnalysisEntry<K>> {
         Some(AnalysisEntry {
             marker: "display",
-            unread: &["response_time_s"],
-            optional: &[],
+            unread: &["response_time_s", "parameter", "level"],
+            optional: &["parameter", "level"],
             counts_aborted: false,
             run: |rows, context| {
-                let m = analysis::analyze(rows, &display_order::<K>(context.designs))?;
-                Ok(Section {
-                    html: context.report(|| report::magnitude_section(&m)),
-                    summary: m.summary,
-                    notes: m.notes,
-                    tables: m.tables,
-                })
+                // Seed 001's form (no level), and the generic form's
+                // scalings; a folder may hold both.
+                let seed = rows.where_filled("level", false)?;
+                let scaled = rows.where_filled("level", true)?;
+                let mut section = Section {
+                    html: String::new(),
+                    summary: Value::Null,
+                    notes: Vec::new(),
+                    tables: Vec::new(),
+                };
+                if !seed.is_empty() || scaled.is_empty() {
+                    let m = analysis::analyze(&seed, &display_order::<K>(context.designs))?;
+                    section.html = context.report(|| report::magnitude_section(&m));
+                    section.summary = m.summary;
+                    section.notes = m.notes;
+                    section.tables = m.tables;
+                }
+                if !scaled.is_empty() {
+                    let results = scaling::scalings(&scaled)?;
+                    let tables = scaling::tables(&results);
+                    section
+                        .html
+                        .push_str(&context.report(|| report::scaling_section(&results, &tables)));
+                    if !section.summary.is_object() {
+                        section.summary = Value::Object(serde_json::Map::new());
+                    }
+                    section.summary["scalings"] = scaling::summary(&results);
+                    section.tables.extend(tables);
+                }
+                Ok(section)
             },
         })
     }

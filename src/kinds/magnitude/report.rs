@@ -3,6 +3,7 @@
 use std::fmt::Write as _;
 
 use super::analysis::Magnitude;
+use super::scaling::ScalingResult;
 use crate::analysis::Table;
 use crate::analysis::report::{esc, fmt, line_chart, table_html};
 
@@ -70,4 +71,39 @@ impl Magnitude {
     pub fn tables_ref(&self) -> &[Table] {
         &self.tables
     }
+}
+
+/// The section of the generic form: each scaling's exponent, its means on
+/// log-log axes, and the tables.
+#[must_use]
+pub fn scaling_section(results: &[ScalingResult], tables: &[Table]) -> String {
+    let mut s = String::from("<h2>Magnitude estimation: power laws</h2>");
+    let mut charts = String::from("<div class=\"figs\">");
+    for r in results {
+        let exponent = r.exponent.map_or("n/a (fewer than two participants)".into(), |(m, lo, hi)| {
+            format!("<b>{}</b> (95% CI {} to {})", fmt(m), fmt(lo), fmt(hi))
+        });
+        let _ = write!(
+            s,
+            "<p>{} ({}): Stevens exponent, mean of {} participants' slopes of ln(answer) on ln(level): {exponent}; slope of the geometric means: {}.</p>",
+            esc(&r.display),
+            esc(&r.parameter),
+            r.exponents.len(),
+            r.exponent_of_means.map_or("n/a".into(), |(b, r2)| format!("{} (r^2 {})", fmt(b), fmt(r2)))
+        );
+        let points: Vec<(f64, f64)> = r.means.iter().map(|m| (m.level.ln(), m.value.ln())).collect();
+        charts.push_str(&line_chart(
+            &format!("{}: ln geometric mean vs ln {}", r.display, r.parameter),
+            &format!("ln {}", r.parameter),
+            "ln geometric mean (equalized)",
+            &[(r.display.clone(), points)],
+            &[],
+        ));
+    }
+    charts.push_str("</div>");
+    s.push_str(&charts);
+    for t in tables {
+        s.push_str(&table_html(t));
+    }
+    s
 }
