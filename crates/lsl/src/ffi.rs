@@ -27,6 +27,7 @@ type PushFloatFn = unsafe extern "C" fn(*mut c_void, *const f32, f64, i32) -> i3
 type PushStrFn = unsafe extern "C" fn(*mut c_void, *const *const c_char, f64, i32) -> i32;
 type ConsumersFn = unsafe extern "C" fn(*mut c_void) -> i32;
 type WaitFn = unsafe extern "C" fn(*mut c_void, f64) -> i32;
+type ConfigFn = unsafe extern "C" fn(*const c_char);
 
 /// Why a library could not be opened.
 pub(super) enum OpenError {
@@ -54,6 +55,8 @@ pub(super) struct Api {
     push_sample_strtp: PushStrFn,
     have_consumers: ConsumersFn,
     wait_for_consumers: WaitFn,
+    /// `lsl_set_config_content` (liblsl 1.16 and later).
+    set_config_content: Option<ConfigFn>,
     _library: libloading::Library,
 }
 
@@ -107,8 +110,25 @@ impl Api {
             push_sample_strtp: get!("lsl_push_sample_strtp"),
             have_consumers: get!("lsl_have_consumers"),
             wait_for_consumers: get!("lsl_wait_for_consumers"),
+            // SAFETY: as `get!`; optional, older releases lack it.
+            set_config_content: unsafe { library.get::<ConfigFn>(b"lsl_set_config_content\0") }
+                .ok()
+                .map(|f| *f),
             _library: library,
         })
+    }
+
+    /// Sets liblsl's configuration to `content` (an `lsl_api.cfg`'s text)
+    /// before its first use; false if this liblsl cannot.
+    pub(super) fn set_config(&self, content: &str) -> bool {
+        let Some(set) = self.set_config_content else {
+            return false;
+        };
+        let text = c(content);
+        // SAFETY: a NUL-terminated string that outlives the call; liblsl
+        // copies it.
+        unsafe { set(text.as_ptr()) };
+        true
     }
 
     pub(super) fn library_version(&self) -> i32 {

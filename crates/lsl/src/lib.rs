@@ -95,6 +95,22 @@ pub fn candidates(explicit: Option<&Path>, env: Option<&Path>) -> Vec<(String, P
         .collect()
 }
 
+/// liblsl logs at level INFO to stderr by default (two lines per run:
+/// its configuration and build). Without a configuration of the user's
+/// own (`LSLAPICFG`, `./lsl_api.cfg`, `~/lsl_api/lsl_api.cfg`,
+/// `/etc/lsl_api/lsl_api.cfg`, which liblsl reads as always), it logs
+/// warnings and errors only.
+fn quiet(api: &ffi::Api) {
+    let home = std::env::var_os("HOME").map(PathBuf::from);
+    let own = std::env::var_os("LSLAPICFG").is_some()
+        || Path::new("lsl_api.cfg").exists()
+        || home.is_some_and(|h| h.join("lsl_api/lsl_api.cfg").exists())
+        || Path::new("/etc/lsl_api/lsl_api.cfg").exists();
+    if !own {
+        let _ = api.set_config("[log]\nlevel = -1\n");
+    }
+}
+
 /// The loaded library.
 pub struct Lsl {
     api: ffi::Api,
@@ -124,6 +140,7 @@ impl Lsl {
             let shown = path.display().to_string();
             match ffi::Api::open(path, MIN_VERSION) {
                 Ok(api) => {
+                    quiet(&api);
                     let version = api.library_version();
                     return Ok(Arc::new(Lsl {
                         api,
