@@ -95,6 +95,11 @@ pub const DEVICE_CHANNELS: [(&str, &str, &str); 5] = [
 /// Device samples held for a lagging worker: this many seconds of them.
 const SAMPLE_QUEUE_S: f64 = 2.0;
 
+/// How often the worker takes the queued device samples: each is pushed
+/// within about this of being queued, for one wake-up per period instead
+/// of one per sample.
+const SAMPLE_PERIOD: Duration = Duration::from_micros(500);
+
 /// How long [`Publisher::finish`] lets a connected inlet take the last
 /// samples before the outlets close, s.
 const LINGER_S: f64 = 0.5;
@@ -237,22 +242,16 @@ impl Shared {
         self.queue.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
-    /// Queues a sample (the oldest dropped, and counted, when full) and
-    /// wakes the worker if the queue was empty: otherwise it is busy with
-    /// what was queued (it takes the whole queue, then looks again) or
-    /// already woken.
+    /// Queues a sample (the oldest dropped, and counted, when full). The
+    /// worker is not woken: it takes the samples every [`SAMPLE_PERIOD`],
+    /// so a haptic loop pays one brief lock per tick, no system call.
     fn sample(&self, values: [f32; 5], at: f64, handled: f64) {
         let mut q = self.lock();
         if q.samples.len() >= q.sample_cap {
             q.samples.pop_front();
             q.dropped += 1;
         }
-        let idle = q.markers.is_empty() && q.samples.is_empty();
         q.samples.push_back((values, at, handled));
-        drop(q);
-        if idle {
-            self.ready.notify_one();
-        }
     }
 }
 
@@ -409,12 +408,17 @@ impl Publisher {
     /// Publishes the device stream (on this thread: creating an outlet
     /// takes liblsl some milliseconds, which the worker must not spend
     /// while markers wait), then hands it to the worker. Whether it could.
-    pub fn device(&mut self, stream: &DeviceStream) -> bool {
+    /// With `wait_s` > 0, first waits that long at most for an inlet
+    /// (a recorder that was waited for subscribes to both streams).
+    pub fn device(&mut self, stream: &DeviceStream, wait_s: f64) -> bool {
         self.device_open = true;
         let Some(outlet) = open_device(&self.lsl, stream) else {
             self.device_failed = true;
             return false;
         };
+        if wait_s > 0.0 {
+            let _ = outlet.0.wait_for_consumers(wait_s);
+        }
         let mut q = self.shared.lock();
         #[expect(
             clippy::cast_possible_truncation,
@@ -512,8 +516,21 @@ fn work(lsl: &Arc<Lsl>, shared: &Shared, markers: &frictionlab_lsl::Outlet) -> P
     loop {
         let (open, closing) = {
             let mut q = shared.lock();
-            while q.markers.is_empty() && q.samples.is_empty() && q.device.is_none() && !q.closing {
-                q = shared.ready.wait(q).unwrap_or_else(PoisonError::into_inner);
+            // Markers, a new stream and the end wake the worker; samples
+            // are taken every period while the device stream is open.
+            while q.markers.is_empty() && q.device.is_none() && !q.closing {
+                if device.is_none() {
+                    q = shared.ready.wait(q).unwrap_or_else(PoisonError::into_inner);
+                    continue;
+                }
+                if !q.samples.is_empty() {
+                    break;
+                }
+                q = shared
+                    .ready
+                    .wait_timeout(q, SAMPLE_PERIOD)
+                    .unwrap_or_else(PoisonError::into_inner)
+                    .0;
             }
             std::mem::swap(&mut marks, &mut q.markers);
             std::mem::swap(&mut samples, &mut q.samples);

@@ -241,13 +241,7 @@ pub fn run_device<R: Responder>(
 ) -> Result<SessionOutcome, SessionError> {
     let mut session = Session::begin(dir, req, responder)?;
     let wall = Instant::now();
-    // Published on LSL, ticks are read every 0.2 ms rather than every
-    // 1 ms: a marker's event is handled within that of its tick.
-    let poll = if req.lsl.is_some() {
-        Duration::from_micros(200)
-    } else {
-        Duration::from_millis(1)
-    };
+
     let mut seen = 0;
     loop {
         session.poll_device()?;
@@ -269,7 +263,7 @@ pub fn run_device<R: Responder>(
                 completed: session.completed(),
             });
         }
-        std::thread::sleep(poll);
+        std::thread::sleep(Duration::from_millis(1));
     }
 }
 

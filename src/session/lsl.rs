@@ -20,6 +20,11 @@ use crate::kinds::{Action, Header, PlannedTrial, TrialRecord};
 use crate::lsl::{Clock, DeviceStream, Node, Publisher, Streaming};
 use crate::protocol::engine::{Answer, Input, RenderMode, Screen};
 
+/// How long a session that waits for a recorder (`--lsl-wait`) also waits
+/// for it to take the device stream, s: LabRecorder subscribes to the
+/// streams it records within a second of starting.
+const DEVICE_WAIT_S: f64 = 5.0;
+
 /// What a session publishing on LSL keeps.
 pub(super) struct Tap {
     publisher: Publisher,
@@ -217,6 +222,23 @@ impl<R: Responder> Session<R> {
             trial_start: None,
             lost: false,
         };
+        // The simulated device's stream is known now: published before
+        // the session runs (a port's waits for its first tick, which says
+        // who renders), and before the first marker (liblsl creates an
+        // outlet under a lock its pushes wait for).
+        if self.device.is_sim() {
+            // It ticks at the rate of the model it renders: the plan's
+            // (its fastest model's) is the stream's nominal rate.
+            let how = How {
+                rate_hz: self.loop_rate_hz,
+                ..self.row_render.1
+            };
+            let stream = device_stream(&tap, how, &self.device_label);
+            // A recorder waited for subscribes to this stream too: waited
+            // for as well, so the session starts with both streams taken.
+            tap.publisher
+                .device(&stream, streaming.wait_s.min(DEVICE_WAIT_S));
+        }
         // Stamped now: the stream starts here (a port's loop clock began
         // earlier, and a recorder may have been waited for).
         let mut m = fields(match self.resumed_at {
@@ -232,19 +254,6 @@ impl<R: Responder> Session<R> {
         }
         let now = tap.publisher.now();
         tap.publisher.marker(now, m);
-        // The simulated device's stream is known now: published before
-        // the session runs (a port's waits for its first tick, which says
-        // who renders).
-        if self.device.is_sim() {
-            // It ticks at the rate of the model it renders: the plan's
-            // (its fastest model's) is the stream's nominal rate.
-            let how = How {
-                rate_hz: self.loop_rate_hz,
-                ..self.row_render.1
-            };
-            let stream = device_stream(&tap, how, &self.device_label);
-            tap.publisher.device(&stream);
-        }
         self.lsl = Some(Box::new(tap));
         Ok(())
     }
@@ -323,7 +332,7 @@ impl<R: Responder> Session<R> {
             // (the tick says who renders), and the haptic loop queues the
             // samples from the next tick on, stamped where it reads them.
             let stream = device_stream(tap, self.row_render.1, &self.device_label);
-            if tap.publisher.device(&stream)
+            if tap.publisher.device(&stream, 0.0)
                 && let super::device::Device::Port(port) = &mut self.device
             {
                 port.publish(tap.publisher.sample_tap(tap.clock.lsl0));
