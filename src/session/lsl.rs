@@ -271,20 +271,19 @@ impl<R: Responder> Session<R> {
     /// Holds a paced simulated session (after [`Session::lsl_pace`]) until
     /// LSL's clock reaches its next tick, so each tick's sample (and the
     /// events settled right after it) are handled at, or just after,
-    /// their timestamps. Returns false (at once) when not so paced.
-    pub(super) fn lsl_hold(&self) -> bool {
+    /// their timestamps. Returns at once when not so paced.
+    pub(super) fn lsl_hold(&self) {
         let (Some(tap), super::device::Device::Sim { dt, .. }) = (&self.lsl, &self.device) else {
-            return false;
+            return;
         };
         if tap.per_frame {
-            return false;
+            return;
         }
         let due = tap.clock.at(self.t + dt);
         let rest = due - tap.publisher.now();
         if rest > 0.0 {
             std::thread::sleep(std::time::Duration::from_secs_f64(rest));
         }
-        true
     }
 
     /// After a record was written (flushed and synced, the write rule): a
