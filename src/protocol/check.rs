@@ -75,6 +75,9 @@ pub(super) fn check<K: Kinds>(p: &Protocol<K>, errors: &mut Vec<Problem>) {
         c.err("repetitions", "must be at least 1");
     }
     c.non_negative("break_s", p.break_s);
+    for (i, v) in p.validation.iter().enumerate() {
+        super::validation::check(v, &format!("validation[{i}]"), &mut c);
+    }
     K::check_design(
         &p.design,
         &mut Checks {

@@ -214,7 +214,7 @@ impl Walk {
     }
 
     fn protocol<K: Kinds>(&mut self, v: &Value) -> Option<Protocol<K>> {
-        const KEYS: [&str; 10] = [
+        const KEYS: [&str; 11] = [
             "$schema",
             "id",
             "title",
@@ -225,6 +225,7 @@ impl Walk {
             "break_s",
             "instructions",
             "design",
+            "validation",
         ];
         let m = self.object(v, "$", &KEYS)?;
         let p = "$";
@@ -237,6 +238,7 @@ impl Walk {
         let block_order = self.optional(m, "block_order", p, BlockOrder::default());
         let break_s = self.optional(m, "break_s", p, 0.0_f64);
         let instructions = self.optional(m, "instructions", p, String::new());
+        let validation = self.optional(m, "validation", p, Vec::new());
         let design = if let Some(d) = m.get("design") {
             K::read_design(self, d, "design")
         } else {
@@ -254,6 +256,7 @@ impl Walk {
             break_s: break_s?,
             instructions: instructions?,
             design: design?,
+            validation: validation?,
         })
     }
 

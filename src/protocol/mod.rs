@@ -33,6 +33,7 @@ pub mod engine;
 pub mod kind;
 pub mod load;
 pub mod plan;
+pub mod validation;
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -74,6 +75,11 @@ pub struct Protocol<K: Kinds> {
     pub instructions: String,
     /// The study-specific design.
     pub design: K::Design,
+    /// The human experiments this protocol redoes, one row each, and the
+    /// bands a replay with simulated participants is judged by
+    /// (`frictionlab validation`); a session ignores them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub validation: Vec<validation::Validation>,
 }
 
 impl<K: Kinds> Protocol<K> {

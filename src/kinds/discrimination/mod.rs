@@ -272,7 +272,8 @@ pub struct DiscriminationDesign {
     /// The model; its `parameter` is set to each level and comparison.
     pub reference: ModelParams,
     /// The parameter varied: a field of the model object, nested fields
-    /// joined by dots (`static_friction.mu_s`).
+    /// joined by dots (`static_friction.mu_s`), or several fields set
+    /// together joined by `+` (`fc_pos_n+fc_neg_n`).
     pub parameter: String,
     /// The reference levels of the parameter, one track each.
     pub levels: Vec<f64>,
@@ -352,7 +353,7 @@ pub struct TwoIntervals {
     trial: DiscriminationTrial,
 }
 
-pub use crate::friction::{parameter_value, with_parameter};
+pub use crate::friction::{parameter_problem, parameter_value, with_parameter};
 
 /// Checks the adaptive method; returns the smallest and largest difference
 /// it may present.
@@ -480,15 +481,8 @@ impl StudyKind for Discrimination {
                 ),
             );
         }
-        if parameter_value(&d.reference, &d.parameter).is_none() {
-            c.err(
-                "parameter",
-                format!(
-                    "the reference model ('{}') has no numeric parameter '{}'",
-                    d.reference.name(),
-                    d.parameter
-                ),
-            );
+        if let Some(why) = parameter_problem(&d.reference, &d.parameter) {
+            c.err("parameter", why);
             return;
         }
         if d.levels.is_empty() {

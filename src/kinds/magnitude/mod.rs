@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use crate::analysis::{AnalysisEntry, KindAnalysis, Section, designs_of};
-use crate::friction::{ModelParams, NakanoParams, Validate, parameter_value, with_parameter};
+use crate::friction::{ModelParams, NakanoParams, Validate, parameter_problem, with_parameter};
 use crate::protocol::check::Checks;
 use crate::protocol::engine::{Action, Answer, Input, Question, Screen};
 use crate::protocol::kind::{Block, Exploration, Holds, Kinds, LiveTrial, Next, StudyKind};
@@ -57,7 +57,7 @@ pub struct Scaling {
     /// The model; its `parameter` is set to each level.
     pub reference: ModelParams,
     /// The parameter scaled: a field of the model object (`damping_n_s_m`;
-    /// nested fields joined by dots).
+    /// nested fields joined by dots; several set together joined by `+`).
     pub parameter: String,
     /// Its levels, in the parameter's units, each presented `repetitions`
     /// times (the protocol's), in random order.
@@ -154,15 +154,8 @@ fn check_scaling(sc: &Scaling, c: &mut Checks) {
     if sc.display.trim().is_empty() {
         c.err("scaling.display", "must not be empty");
     }
-    if parameter_value(&sc.reference, &sc.parameter).is_none() {
-        c.err(
-            "scaling.parameter",
-            format!(
-                "the reference model ('{}') has no numeric parameter '{}'",
-                sc.reference.name(),
-                sc.parameter
-            ),
-        );
+    if let Some(why) = parameter_problem(&sc.reference, &sc.parameter) {
+        c.err("scaling.parameter", why);
         return;
     }
     if sc.levels.len() < 2 {
