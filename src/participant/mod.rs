@@ -105,7 +105,17 @@ impl Traits {
     #[must_use]
     pub fn draw(seed: u64, id: &str, p: &Population) -> Self {
         let mut r = ChaCha8Rng::seed_from_u64(seed ^ id_hash(id));
-        let mut u = |[lo, hi]: Range| if hi > lo { r.random_range(lo..hi) } else { lo };
+        // A range pinned to one value still takes its draw, so pinning one
+        // trait (the validation sweep, the claims' hand grid) leaves every
+        // other trait of the participant as drawn (common random numbers).
+        let mut u = |[lo, hi]: Range| {
+            if hi > lo {
+                r.random_range(lo..hi)
+            } else {
+                let _: f64 = r.random_range(0.0..1.0);
+                lo
+            }
+        };
         Traits {
             exponent: u(p.stevens_exponent),
             modulus: 10.0 * u([-1.0, 1.0]).exp(),

@@ -22,7 +22,9 @@
 //!   (participants with no time change left out), and `accuracy_sign_p`
 //!   likewise of those more accurate against those less accurate; each
 //!   against an even split. `null` when no participant changed.
-//! - Regression: OLS of MT on ID over every test of the condition.
+//! - Regression: OLS of MT on ID over every test of the condition, and
+//!   each participant's own (`participant_fits`: slope, intercept, r², and
+//!   the participant's mean throughput).
 //! - Throughput: each test's ISO 9241-9 effective throughput, its endpoint
 //!   spread from every click, hits and misses
 //!   ([`crate::analysis::stats::effective_throughput`]; from the hits alone for data
@@ -323,11 +325,23 @@ fn regressions(
                 .or_default()
                 .push((t.id_bits, t.completion_s / (t.taps - 1.0)));
         }
+        // The mean of each participant's sequences, then of participants.
+        let mut by_participant: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
+        for t in tests.iter().filter(|t| &t.condition == c) {
+            if let Some(tp) = t.throughput {
+                by_participant.entry(&t.participant).or_default().push(tp);
+            }
+        }
         let participant_fits: Vec<Value> = own
             .iter()
             .map(|(p, pts)| {
                 let f = linear_fit(pts);
-                json!({"participant": p, "slope_s_per_bit": f.map(|f| f.slope), "r2": f.map(|f| f.r2)})
+                let tp = by_participant.get(p).and_then(|v| mean(v));
+                json!({
+                    "participant": p, "slope_s_per_bit": f.map(|f| f.slope),
+                    "intercept_s": f.map(|f| f.intercept), "r2": f.map(|f| f.r2),
+                    "throughput_bits_per_s": tp,
+                })
             })
             .collect();
         mt_by_id.push((c.clone(), by_id, fit));
@@ -338,13 +352,6 @@ fn regressions(
             "means_intercept_s": of_means.map(|f| f.intercept),
             "participant_fits": participant_fits,
         }));
-        // The mean of each participant's sequences, then of participants.
-        let mut by_participant: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
-        for t in tests.iter().filter(|t| &t.condition == c) {
-            if let Some(tp) = t.throughput {
-                by_participant.entry(&t.participant).or_default().push(tp);
-            }
-        }
         let tp = mean(
             &by_participant
                 .values()
