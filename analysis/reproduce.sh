@@ -67,3 +67,8 @@ for k in 150 300 600 1000; do
 done
 
 "$bin" claims analysis --fitts-protocol protocols/fitts.json
+
+# The validation table: the protocols in analysis/validation/ (each with
+# its published result and band) replayed with simulated participants, and
+# the sweep over the population's constants (validation.md, validation.json).
+"$bin" validation analysis

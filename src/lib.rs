@@ -30,3 +30,4 @@ pub mod results;
 pub mod scenario;
 pub mod session;
 pub mod settings;
+pub mod validation;

@@ -44,6 +44,7 @@ const LAYERS: &[(&str, &[&str])] = &[
             "gui",
             "cli",
             "claims",
+            "validation",
             "render",
             "rerender",
             "interrupt",

@@ -64,6 +64,59 @@ pub(super) fn claims_command(dir: &Path, fitts_protocol: &Path) -> Result<(), Fa
     emit(&format!("wrote {}\n", path.display()))
 }
 
+pub(super) fn validation_command(
+    dir: &Path,
+    no_sweep: bool,
+    jobs: Option<usize>,
+) -> Result<(), Failure> {
+    let options = crate::validation::Options {
+        sweep: !no_sweep,
+        jobs: jobs.unwrap_or_else(|| {
+            std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
+        }),
+    };
+    let bar = indicatif::ProgressBar::new(0);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} replays, ETA {eta}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let rows = crate::validation::run(dir, options, &|done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    })
+    .map_err(Failure::from)?;
+    bar.finish_and_clear();
+    let json = serde_json::to_vec_pretty(&rows)
+        .map_err(|e| Failure::from(vec![UserError::new("validation.json", e.to_string())]))?;
+    for (name, bytes) in [
+        ("validation.json", json),
+        (
+            "validation.md",
+            crate::validation::table(&rows).into_bytes(),
+        ),
+    ] {
+        let path = dir.join(name);
+        crate::render::write_atomically(&path, &bytes).map_err(|e| {
+            Failure::from(vec![UserError::new(
+                path.display().to_string(),
+                format!("cannot write: {e}"),
+            )])
+        })?;
+        emit(&format!("wrote {}\n", path.display()))?;
+    }
+    for r in &rows {
+        emit(&format!(
+            "{}: {} = {} ({})\n",
+            r.file,
+            r.validation.statistic.name,
+            r.mean
+                .map_or_else(|| "n/a".to_owned(), |m| format!("{m:.4}")),
+            r.verdict
+        ))?;
+    }
+    Ok(())
+}
+
 pub(super) fn analyze_command(
     dir: &Path,
     out: Option<&Path>,

@@ -17,7 +17,7 @@ mod commands;
 use commands::{
     analyze_command, claims_command, emulator_command, firmware_qemu_command, gui_command,
     identify_command, models_json, ports_command, power_command, power_merge_command,
-    render_command, run_command, simulate_command, validate_command,
+    render_command, run_command, simulate_command, validate_command, validation_command,
 };
 
 /// `--device`: `sim` (the simulated apparatus) or a serial port's path.
@@ -150,6 +150,21 @@ enum Command {
         /// seed's hardest tasks).
         #[arg(long)]
         fitts_protocol: PathBuf,
+    },
+    /// Replays the validation protocols in DIR/validation/ with simulated
+    /// participants and writes DIR/validation.md and DIR/validation.json:
+    /// each human experiment's published result, its band, the simulated
+    /// mean with its 95% interval, the verdict, and the sweep over the
+    /// participant's constants.
+    Validation {
+        /// The analysis folder (`analysis/`).
+        dir: PathBuf,
+        /// The main replays only, without the sweep.
+        #[arg(long)]
+        no_sweep: bool,
+        /// Worker threads (default: the machine's cores).
+        #[arg(long)]
+        jobs: Option<usize>,
     },
     /// Fits friction parameters to recorded motion and force (seed 002);
     /// prints JSON with a `protocol_model` block for a protocol.
@@ -420,6 +435,11 @@ pub fn main() -> ExitCode {
             dir,
             fitts_protocol,
         } => claims_command(&dir, &fitts_protocol),
+        Command::Validation {
+            dir,
+            no_sweep,
+            jobs,
+        } => validation_command(&dir, no_sweep, jobs),
         Command::Identify(args) => identify_command(&args),
         Command::Ports => ports_command(),
         Command::DeviceEmulator {
