@@ -9,6 +9,7 @@ use std::path::Path;
 use plotters::prelude::*;
 
 use crate::results::ResultsError;
+use crate::results::csv::Num;
 use crate::scenario::Sample;
 
 /// The CSV columns, in order; `vibration` only for tactile models,
@@ -25,8 +26,9 @@ pub fn columns(vibration: bool, applied: bool) -> Vec<&'static str> {
     c
 }
 
-/// The time series as CSV text (header row, comma separated, shortest
-/// round-trip number formatting, so equal runs give equal bytes).
+/// The time series as CSV text (header row, comma separated, numbers as
+/// [`crate::results::csv::Num`] writes them, so equal runs give equal
+/// bytes).
 #[must_use]
 pub fn csv(samples: &[Sample], vibration: bool) -> String {
     let applied = samples.first().is_some_and(|s| s.applied.is_some());
@@ -36,18 +38,18 @@ pub fn csv(samples: &[Sample], vibration: bool) -> String {
         let _ = write!(
             out,
             "{},{},{},{},{},{}",
-            s.t_s,
-            s.x_m,
-            s.v_m_s,
-            s.force_n,
+            Num(s.t_s),
+            Num(s.x_m),
+            Num(s.v_m_s),
+            Num(s.force_n),
             s.phase.as_str(),
             u8::from(s.slip_onset)
         );
         if vibration {
-            let _ = write!(out, ",{}", s.vibration);
+            let _ = write!(out, ",{}", Num(s.vibration));
         }
         if let Some((a, f)) = s.applied {
-            let _ = write!(out, ",{a},{f}");
+            let _ = write!(out, ",{},{}", Num(a), Num(f));
         }
         out.push('\n');
     }

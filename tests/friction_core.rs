@@ -237,3 +237,34 @@ fn invalid_parameters_are_named_with_a_reason() {
     }
     assert!(ForceLimit::new(f64::NAN).is_err() && ForceLimit::new(0.0).is_err());
 }
+
+in_both_floats! {
+    /// Issue 37: a velocity estimate that decays, and a stick-slip burst
+    /// that dies out, end at exactly 0, never in subnormal numbers.
+    fn a_decaying_velocity_estimate_and_burst_end_at_zero_not_in_subnormals_issue_37<T>() {
+        use frictionlab::friction::{StepParams, filtered_velocity};
+        let dt = 1.0 / 5000.0;
+        let alpha = T::of(StepParams::default().velocity_alpha(dt));
+        let (mut v, mut steps) = (T::of(0.1), 0);
+        while v != T::ZERO {
+            v = filtered_velocity(alpha, v, T::ZERO);
+            assert!(v == T::ZERO || v.abs() >= T::of(1e-9), "{v:?}");
+            steps += 1;
+            assert!(steps < 1000, "still {v:?} after {steps} steps");
+        }
+        // Stick-slip with its burst, then the finger still for 10 s.
+        let model = common::model("stick-slip-tactile", &[]);
+        let mut inputs = common::wiggle(5000, dt, 0.01);
+        let last = *inputs.last().unwrap();
+        inputs.extend(std::iter::repeat_n(
+            frictionlab::friction::Input { x_m: last.x_m, v_m_s: 0.0 },
+            50_000,
+        ));
+        let out = common::drive::<T>(&model, dt, &inputs);
+        assert!(out[..5000].iter().any(|o| o.vibration.abs() > 0.01), "a burst");
+        for o in &out {
+            assert!(!o.vibration.is_subnormal() && !o.force_n.is_subnormal());
+        }
+        assert!(out[out.len() - 1000..].iter().all(|o| o.vibration == 0.0));
+    }
+}

@@ -7,7 +7,7 @@
 //! Timers and pins are set up by their registers (reference manual RM0368),
 //! each access with a SAFETY comment; the HAL sets the clocks and runs USB.
 
-use frictionlab_core::friction::Input;
+use frictionlab_core::friction::{Input, filtered_velocity};
 use frictionlab_core::onboard::Apparatus;
 use stm32f4xx_hal::otg_fs::{USB, UsbBus};
 use stm32f4xx_hal::pac;
@@ -212,7 +212,7 @@ impl Board for Hw {
         let moved = counts.wrapping_sub(self.last_counts) as f32;
         self.last_counts = counts;
         let raw_v = moved / COUNTS_PER_M / dt;
-        self.v_estimate = self.alpha * self.v_estimate + (1.0 - self.alpha) * raw_v;
+        self.v_estimate = filtered_velocity(self.alpha, self.v_estimate, raw_v);
         #[expect(clippy::cast_precision_loss, reason = "counts over the range fit f32")]
         let x_m = counts as f32 / COUNTS_PER_M;
         let inputs = read(GPIOB + IDR);

@@ -54,7 +54,7 @@ impl Cell {
                 format!("\"{}\"", s.replace('"', "\"\""))
             }
             Cell::Text(s) => s.clone(),
-            Cell::Num(Some(x)) => x.to_string(),
+            Cell::Num(Some(x)) => crate::results::csv::num(*x),
             Cell::Num(None) => String::new(),
         }
     }

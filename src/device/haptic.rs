@@ -504,7 +504,7 @@ fn run(
         was_connected = connected;
         if connected {
             let raw = x_prev.map_or(0.0, |p| (x - p) / dt);
-            v = alpha * v + (1.0 - alpha) * raw;
+            v = crate::friction::filtered_velocity(alpha, v, raw);
             x_prev = Some(x);
         } else {
             x_prev = None;

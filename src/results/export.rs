@@ -47,8 +47,8 @@ pub fn data_csv<K: Kinds>(log: &ReadLog<K>) -> String {
     for r in &log.trials {
         let mut cells = data_cells(&log.header, r);
         if lsl {
-            cells.push(super::csv::opt(r.lsl_start_s));
-            cells.push(super::csv::opt(r.lsl_end_s));
+            cells.push(super::csv::opt_num(r.lsl_start_s));
+            cells.push(super::csv::opt_num(r.lsl_end_s));
         }
         csv.push_str(&cells.join(","));
         csv.push('\n');

@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use super::open::OpenLog;
 use crate::device::DeviceSample;
 use crate::kinds::{Header, LogLine, TrialRecord};
+use crate::results::csv::Num;
 use crate::results::{ResultsDir, ResultsError, data_csv, replace_file};
 
 /// Records each trial's device stream at the loop rate and writes it, when
@@ -81,11 +82,11 @@ impl StreamRecorder {
             let _ = write!(
                 text,
                 "{},{},{},{},{},{render},{},{},",
-                r[0],
-                r[1],
-                r[2],
-                r[3],
-                r[4],
+                Num(r[0]),
+                Num(r[1]),
+                Num(r[2]),
+                Num(r[3]),
+                Num(r[4]),
                 u8::from(marks.selected),
                 u8::from(marks.watchdog)
             );

@@ -236,7 +236,7 @@ impl SimDevice {
         }
         let raw_v = (measured - self.x_measured) * self.filter.2;
         let alpha = self.filter.1;
-        self.v_estimate = alpha * self.v_estimate + (1.0 - alpha) * raw_v;
+        self.v_estimate = crate::friction::filtered_velocity(alpha, self.v_estimate, raw_v);
         self.x_measured = measured;
         Input {
             x_m: measured,

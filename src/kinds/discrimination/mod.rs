@@ -559,12 +559,12 @@ impl StudyKind for Discrimination {
     }
 
     fn row(d: &DiscriminationData) -> Vec<String> {
-        use crate::results::csv::opt;
+        use crate::results::csv::{num, opt};
         let mut row = vec![
             d.track.to_string(),
-            d.level.to_string(),
-            d.difference.to_string(),
-            d.comparison_value.to_string(),
+            num(d.level),
+            num(d.difference),
+            num(d.comparison_value),
         ];
         row.extend(Paired::row(&d.answer));
         row.push(opt(d.correct.map(|c| if c { "1" } else { "0" })));

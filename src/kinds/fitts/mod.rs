@@ -414,18 +414,18 @@ impl StudyKind for Fitts {
     }
 
     fn row(d: &FittsData) -> Vec<String> {
-        use crate::results::csv::{list, opt, text};
+        use crate::results::csv::{list, num, opt_num, text};
         vec![
             text(&d.condition),
-            d.amplitude_m.to_string(),
-            d.width_m.to_string(),
-            d.cursor_m.to_string(),
-            d.effective_width_m.to_string(),
-            d.id_bits.to_string(),
-            opt(d.completion_time_s),
+            num(d.amplitude_m),
+            num(d.width_m),
+            num(d.cursor_m),
+            num(d.effective_width_m),
+            num(d.id_bits),
+            opt_num(d.completion_time_s),
             d.taps.to_string(),
             d.errors.to_string(),
-            opt(d.mean_error_m),
+            opt_num(d.mean_error_m),
             list(&d.tap_times_s),
             list(&d.tap_x_m),
             list(&d.target_x_m),

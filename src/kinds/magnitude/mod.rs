@@ -384,16 +384,16 @@ impl StudyKind for Magnitude {
     }
 
     fn row(d: &MagnitudeData) -> Vec<String> {
-        use crate::results::csv::{opt, text};
+        use crate::results::csv::{opt_num, text};
         vec![
             text(&d.display),
-            opt(d.mu_s),
-            opt(d.mu_k),
-            opt(d.delta_mu),
-            opt(d.magnitude),
-            opt(d.response_time_s),
+            opt_num(d.mu_s),
+            opt_num(d.mu_k),
+            opt_num(d.delta_mu),
+            opt_num(d.magnitude),
+            opt_num(d.response_time_s),
             d.parameter.as_deref().map(text).unwrap_or_default(),
-            opt(d.level),
+            opt_num(d.level),
         ]
     }
 }

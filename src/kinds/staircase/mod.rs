@@ -154,7 +154,7 @@ impl StudyKind for Staircase {
     }
 
     fn row(d: &StaircaseData) -> Vec<String> {
-        let mut row = vec![d.delta_mu_s.to_string()];
+        let mut row = vec![crate::results::csv::num(d.delta_mu_s)];
         row.extend(Paired::row(&d.answer));
         row
     }

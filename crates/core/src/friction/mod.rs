@@ -284,6 +284,29 @@ impl StepParams {
     }
 }
 
+/// Below this a velocity estimate is exactly zero, m/s: 1 nm/s, more than
+/// six orders of magnitude below the slowest motion an encoder resolves
+/// (one 1 um count per 0.2 ms tick is 5 mm/s). Without it an estimate
+/// that decays while the device is still ends in subnormal numbers (such
+/// as 5e-324, which the filter's rounding keeps for ever): slow on most
+/// CPUs, and 300-digit decimals in a CSV (issue 37).
+pub const VELOCITY_FLOOR_M_S: f64 = 1e-9;
+
+/// One step of the velocity estimate: the first-order low-pass
+/// `alpha previous + (1 - alpha) raw` of the position's difference
+/// quotient `raw`, settled to exactly 0 below [`VELOCITY_FLOOR_M_S`]. The
+/// simulated device, the host's haptic loop and the firmware all step it.
+#[inline]
+#[must_use]
+pub fn filtered_velocity<T: Real>(alpha: T, previous: T, raw: T) -> T {
+    let v = alpha * previous + (T::ONE - alpha) * raw;
+    if v.abs() < T::of(VELOCITY_FLOOR_M_S) {
+        T::ZERO
+    } else {
+        v
+    }
+}
+
 /// The parameters of one friction model, tagged by its name.
 ///
 /// In JSON: `{"model": "karnopp", "f_static_n": 2.5, ...}`; omitted fields

@@ -58,6 +58,10 @@ use super::{ForceLimit, Input, Output, Phase};
 use crate::check::{Checker, Rule};
 use crate::real::Real;
 
+/// Below this the burst envelope is exactly 0, drive units (see
+/// `advance_burst`).
+pub const ENVELOPE_FLOOR: f64 = 1e-9;
+
 /// Parameters of Nakano's model and its burst. See the module docs for the
 /// choices behind the defaults.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -365,6 +369,12 @@ impl<T: Real> Nakano<T> {
     /// [`Self::prepare`]).
     fn advance_burst(&mut self) {
         self.envelope *= self.decay;
+        // A decayed burst ends at exactly 0 (not in subnormal numbers:
+        // issue 37) once below a billionth of full-scale drive, far below
+        // a 16-bit DAC's step (1.5e-5).
+        if self.envelope.abs() < T::of(ENVELOPE_FLOOR) {
+            self.envelope = T::ZERO;
+        }
         let ((c, s), (tc, ts)) = (self.carrier, self.turn);
         let (c, s) = (c * tc - s * ts, s * tc + c * ts);
         // One Newton step of 1/sqrt(c^2 + s^2) near 1 keeps the phasor on
