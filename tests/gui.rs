@@ -497,12 +497,7 @@ fn a_session_open_in_another_process_disables_resume_with_the_reason_issue_31() 
     let log = dir
         .path()
         .join("logs/study-magnitudequick_subject-p06_session-1_log.jsonl");
-    let text = std::fs::read_to_string(&log).unwrap();
-    let kept: Vec<&str> = text
-        .lines()
-        .filter(|l| !l.contains("\"type\":\"end\""))
-        .collect();
-    std::fs::write(&log, kept.join("\n") + "\n").unwrap();
+    cut(&log, 0);
     // Another process's hold, as the OS sees it (this one's lock).
     let held = std::fs::OpenOptions::new().append(true).open(&log).unwrap();
     held.lock().unwrap();
@@ -586,4 +581,462 @@ fn the_lsl_box_publishes_the_session_or_says_why_it_cannot_issue_34() {
     }
     let text = std::fs::read_to_string(l.log_path()).unwrap();
     assert!(text.contains(r#""type":"lsl""#), "{text}");
+}
+
+/// The streams of a session folder, in trial order.
+fn streams(out: &Path) -> Vec<std::path::PathBuf> {
+    let mut files: Vec<_> = std::fs::read_dir(out.join("streams"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    files.sort_by_key(|p| {
+        let name = p.file_name().unwrap().to_string_lossy().into_owned();
+        let trial = name.split("_trial-").nth(1).unwrap();
+        trial.split('_').next().unwrap().parse::<u32>().unwrap()
+    });
+    files
+}
+
+#[test]
+fn dragging_the_handle_moves_the_hand_and_the_stream_follows_the_drag_issue_37() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(dir.path(), "p40", None);
+    choose_protocol(&mut h, "magnitude-quick.json");
+    start(&mut h);
+    click(&mut h, "Continue");
+    assert!(matches!(
+        live(&h).view().screen,
+        Some(Screen::Explore { .. })
+    ));
+    // Press on the handle (the device's cursor, at rest), then drag it to
+    // +12 mm in steps, the button held all the way.
+    let rect = h.state().workspace().unwrap();
+    let x0 = live(&h).sample().x_m;
+    let y = rect.center().y;
+    h.drag_at(egui::pos2(to_screen(rect, x0), y));
+    h.step();
+    let mut followed = Vec::new();
+    for k in 1..=12 {
+        let aim = x0 + f64::from(k) * 1e-3;
+        h.hover_at(egui::pos2(to_screen(rect, aim), y));
+        for _ in 0..4 {
+            h.step();
+        }
+        followed.push((aim, live(&h).sample().x_m));
+    }
+    // Held there, the device settles under the pointer.
+    for _ in 0..10 {
+        h.step();
+    }
+    let end = live(&h).sample().x_m;
+    h.drop_at(egui::pos2(to_screen(rect, x0 + 0.012), y));
+    h.step();
+    assert!(
+        (end - (x0 + 0.012)).abs() < 1e-3,
+        "dragged to {} mm, the device is at {} mm ({followed:?})",
+        (x0 + 0.012) * 1e3,
+        end * 1e3
+    );
+    // The trial's stream has the position following the drag: rising
+    // through the 12 mm, ending near it.
+    for _ in 0..20 {
+        h.step();
+    }
+    type_into(&mut h, "Your number", "3");
+    click(&mut h, "Submit");
+    let first = &streams(dir.path())[0];
+    let rows = csv_rows(first);
+    let x: Vec<f64> = column(&rows, "x_m")
+        .iter()
+        .map(|v| v.parse().unwrap())
+        .collect();
+    let last = *x.last().unwrap();
+    assert!(
+        (last - (x0 + 0.012)).abs() < 1e-3,
+        "stream ends at {last} m"
+    );
+    let crossed = [0.003, 0.006, 0.009]
+        .iter()
+        .all(|d| x.iter().any(|&v| v > x0 + d));
+    assert!(crossed, "the stream rises through the drag");
+}
+
+#[test]
+fn space_or_enter_passes_an_instruction_screen_and_the_screen_says_so_issue_37() {
+    for key in [Key::Space, Key::Enter] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut h = harness(dir.path(), "p41", None);
+        choose_protocol(&mut h, "magnitude-quick.json");
+        start(&mut h);
+        assert!(matches!(
+            live(&h).view().screen,
+            Some(Screen::Instructions(_))
+        ));
+        h.get_by_label("or press Space or Enter");
+        h.key_press(key);
+        h.step();
+        h.step();
+        assert!(
+            matches!(live(&h).view().screen, Some(Screen::Explore { .. })),
+            "{key:?}: {:?}",
+            live(&h).view().screen
+        );
+    }
+}
+
+/// Every field of every CSV under `dir`, the longest's length and text.
+fn longest_field(dir: &Path) -> (usize, String) {
+    let mut longest = (0, String::new());
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "csv") {
+                for row in csv_rows(&p) {
+                    for f in row {
+                        if f.len() > longest.0 {
+                            longest = (f.len(), format!("{}: {f}", p.display()));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    longest
+}
+
+#[test]
+fn a_still_hand_writes_a_stream_the_size_of_a_moving_one_issue_37() {
+    // magnitude-quick with 10 s of exploration.
+    let root = env!("CARGO_MANIFEST_DIR");
+    let text = std::fs::read_to_string(format!("{root}/protocols/magnitude-quick.json")).unwrap();
+    let mut p: serde_json::Value = serde_json::from_str(&text).unwrap();
+    p.as_object_mut().unwrap().remove("$schema");
+    p["design"]["exploration_s"] = serde_json::json!(10.0);
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("still.json");
+    std::fs::write(&file, p.to_string()).unwrap();
+    let out = dir.path().join("results");
+    let mut h = harness(&out, "p42", Some(&file));
+    start(&mut h);
+    click(&mut h, "Continue");
+    let rect = h.state().workspace().unwrap();
+    let y = rect.center().y;
+    // Trial 1: the pointer held still over the strip, the hand at rest; trial 2:
+    // the hand moving back and forth over 20 mm. 10.5 s each.
+    for trial in 0..2 {
+        for i in 0..210 {
+            if trial == 0 {
+                h.hover_at(egui::pos2(to_screen(rect, 0.005), y));
+            } else {
+                let phase = f64::from(i) * 0.05 * std::f64::consts::TAU;
+                h.hover_at(egui::pos2(to_screen(rect, 0.01 * phase.sin()), y));
+            }
+            h.step();
+        }
+        type_into(&mut h, "Your number", "2");
+        click(&mut h, "Submit");
+        if matches!(live(&h).view().screen, Some(Screen::Break { .. })) {
+            click(&mut h, "Continue");
+        }
+    }
+    let files = streams(&out);
+    let (still, moving) = (
+        std::fs::metadata(&files[0]).unwrap().len(),
+        std::fs::metadata(&files[1]).unwrap().len(),
+    );
+    let rows = csv_rows(&files[0]).len();
+    eprintln!("still hand: {still} bytes, moving: {moving} bytes, {rows} rows");
+    // A still hand's numbers are shorter ("0" for a settled velocity), so
+    // its stream is smaller, never larger: before issue 37 it was 7 times
+    // larger (subnormal velocities written as 300-digit decimals).
+    let ratio = still as f64 / moving as f64;
+    assert!(
+        ratio <= 1.2,
+        "still {still} B vs moving {moving} B: {ratio:.3}"
+    );
+    assert!(
+        still / (rows as u64) < 50,
+        "{} bytes a row at rest",
+        still / (rows as u64)
+    );
+    let v = column(&csv_rows(&files[0]), "v_m_s");
+    assert!(
+        v.iter().rev().take(1000).all(|x| x == "0"),
+        "a still hand's velocity settles at 0"
+    );
+    for f in &files {
+        let rows = csv_rows(f);
+        for name in ["x_m", "v_m_s", "force_n", "vibration"] {
+            let subnormal = column(&rows, name)
+                .iter()
+                .filter(|x| x.parse::<f64>().unwrap().is_subnormal())
+                .count();
+            assert_eq!(subnormal, 0, "{}: {name}", f.display());
+        }
+    }
+    let (len, field) = longest_field(&out);
+    assert!(len <= 25, "{len} characters: {field}");
+}
+
+/// Xvfb on a display of its own, or `None` (with a notice) where Xvfb or
+/// xdotool is missing; under CI they must be there (.ci/run installs them).
+fn xvfb() -> Option<(std::process::Child, String)> {
+    let have = |tool: &str| {
+        Process::new("sh")
+            .args(["-c", &format!("command -v {tool}")])
+            .output()
+            .is_ok_and(|o| o.status.success())
+    };
+    let found = have("Xvfb") && have("xdotool");
+    assert!(
+        found || std::env::var_os("CI").is_none(),
+        "Xvfb and xdotool are not installed: .ci/run installs them"
+    );
+    if !found {
+        eprintln!("skipped: Xvfb or xdotool is not installed (.ci/run installs them)");
+        return None;
+    }
+    // -displayfd: Xvfb picks a free display and writes its number.
+    let mut child = Process::new("Xvfb")
+        .args(["-displayfd", "1", "-screen", "0", "1920x1080x24"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    std::io::BufRead::read_line(
+        &mut std::io::BufReader::new(child.stdout.take().unwrap()),
+        &mut line,
+    )
+    .unwrap();
+    Some((child, format!(":{}", line.trim())))
+}
+
+/// Waits up to `s` seconds for `ok`.
+fn wait_for(s: f64, mut ok: impl FnMut() -> bool) -> bool {
+    let end = std::time::Instant::now() + std::time::Duration::from_secs_f64(s);
+    while std::time::Instant::now() < end {
+        if ok() {
+            return true;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    ok()
+}
+
+#[test]
+fn gui_start_opens_straight_into_a_session_whose_trial_is_logged_issue_37() {
+    let Some((mut x, display)) = xvfb() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("results");
+    let root = env!("CARGO_MANIFEST_DIR");
+    let xdotool = |args: &[&str]| {
+        Process::new("xdotool")
+            .args(args)
+            .env("DISPLAY", &display)
+            .output()
+            .unwrap()
+    };
+    let mut gui = Process::new(env!("CARGO_BIN_EXE_frictionlab"))
+        .args(["gui", "--start", "--protocol"])
+        .arg(format!("{root}/protocols/magnitude-quick.json"))
+        .args(["--participant", "p43", "--out"])
+        .arg(&out)
+        .env("DISPLAY", &display)
+        .env_remove("WAYLAND_DISPLAY")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The session is open (its log exists) and the participant's window is
+    // up, with no click on the setup screen.
+    let participant_window = || {
+        let o = xdotool(&["search", "--name", "frictionlab: participant"]);
+        String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .next()
+            .map(str::to_owned)
+    };
+    let opened = wait_for(30.0, || {
+        out.join("logs").is_dir() && participant_window().is_some()
+    });
+    let window = participant_window();
+    let finish = |gui: &mut std::process::Child, x: &mut std::process::Child| {
+        let _ = Process::new("kill").arg(gui.id().to_string()).status();
+        let _ = gui.wait();
+        let _ = x.kill();
+        let _ = x.wait();
+    };
+    if !opened {
+        finish(&mut gui, &mut x);
+        let mut err = String::new();
+        let _ = std::io::Read::read_to_string(&mut gui.stderr.take().unwrap(), &mut err);
+        panic!("the session did not open: {err}");
+    }
+    let window = window.unwrap();
+    // Space passes the instructions; after the 2 s exploration the number
+    // entry has the keyboard: type 3, Enter.
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    xdotool(&["windowfocus", "--sync", &window]);
+    xdotool(&["key", "space"]);
+    std::thread::sleep(std::time::Duration::from_secs(3));
+    xdotool(&["windowfocus", "--sync", &window]);
+    xdotool(&["type", "--delay", "50", "3"]);
+    xdotool(&["key", "Return"]);
+    let data = || {
+        common::session_logs(&out).first().map(|log| {
+            let csv = log
+                .to_string_lossy()
+                .replace("/logs/", "/data/")
+                .replace("_log.jsonl", "_data.csv");
+            std::fs::read_to_string(csv).unwrap_or_default()
+        })
+    };
+    let logged = wait_for(15.0, || data().is_some_and(|d| d.lines().count() >= 2));
+    finish(&mut gui, &mut x);
+    assert!(logged, "no trial logged: {:?}", data());
+    let text = data().unwrap();
+    let rows: Vec<Vec<String>> = text
+        .lines()
+        .map(|l| l.split(',').map(str::to_owned).collect())
+        .collect();
+    assert_eq!(column(&rows, "status")[0], "completed");
+    assert_eq!(column(&rows, "magnitude")[0], "3");
+}
+
+/// Runs `protocol` (a shipped one) for `participant` with the simulated
+/// participant, to the end, into `out`.
+fn run_to_completion(out: &Path, protocol: &str, participant: &str) -> std::path::PathBuf {
+    let o = Process::new(env!("CARGO_BIN_EXE_frictionlab"))
+        .arg("run")
+        .arg(format!(
+            "{}/protocols/{protocol}",
+            env!("CARGO_MANIFEST_DIR")
+        ))
+        .args([
+            "--participant",
+            participant,
+            "--responder",
+            "sim",
+            "--pace",
+            "1000",
+            "--seed",
+            "4",
+        ])
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    common::session_logs(out)
+        .into_iter()
+        .find(|l| {
+            l.to_string_lossy()
+                .contains(&format!("_subject-{participant}_"))
+        })
+        .unwrap()
+}
+
+/// Cuts a log's `end` line and its last `n` trial lines: an unfinished
+/// session.
+fn cut(log: &Path, n: usize) {
+    let text = std::fs::read_to_string(log).unwrap();
+    let mut kept: Vec<&str> = text
+        .lines()
+        .filter(|l| !l.contains("\"type\":\"end\""))
+        .collect();
+    for _ in 0..n {
+        let last = kept
+            .iter()
+            .rposition(|l| l.contains("\"type\":\"trial\""))
+            .unwrap();
+        kept.remove(last);
+    }
+    std::fs::write(log, kept.join("\n") + "\n").unwrap();
+}
+
+#[test]
+fn the_results_panel_shows_complete_unfinished_and_open_sessions_and_resumes_issue_37() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path();
+    run_to_completion(out, "magnitude-quick.json", "p01");
+    let unfinished = run_to_completion(out, "magnitude-quick.json", "p02");
+    cut(&unfinished, 1);
+    let open = run_to_completion(out, "paired-quick.json", "p03");
+    cut(&open, 0);
+    // Another process's hold, as the OS sees it (this one's lock).
+    let held = std::fs::OpenOptions::new()
+        .append(true)
+        .open(&open)
+        .unwrap();
+    held.lock().unwrap();
+    let mut h = harness(out, "", None);
+    click(&mut h, "Results");
+    h.get_by_label("complete");
+    h.get_by_label("unfinished");
+    h.get_by_label(&format!(
+        "open in another process (pid {})",
+        std::process::id()
+    ));
+    h.get_by_label("5 of 6");
+    assert_eq!(h.query_all_by_label("6 of 6").count(), 1, "p01 complete");
+    // Resume only where it applies: the unfinished session, not the one
+    // open elsewhere, nor the complete one.
+    let resumes: Vec<String> = h
+        .query_all_by_role(Role::Button)
+        .filter_map(|n| n.accesskit_node().label())
+        .filter(|l| l.starts_with("Resume"))
+        .collect();
+    assert_eq!(resumes, vec!["Resume p02 session 1".to_owned()]);
+    drop(held);
+    click(&mut h, "Resume p02 session 1");
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    let l = live(&h);
+    assert_eq!(l.participant(), "p02");
+    assert_eq!(l.session(), 1);
+    assert_eq!(l.completed(), 5, "the 5 trials logged");
+    assert_eq!(l.progress().trial, 6, "resumed at the sixth");
+}
+
+#[test]
+fn analyze_from_the_window_writes_the_summary_the_command_line_writes_issue_37() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("results");
+    run_to_completion(&out, "magnitude-quick.json", "p01");
+    run_to_completion(&out, "magnitude-quick.json", "p02");
+    let mut h = harness(&out, "", None);
+    click(&mut h, "Results");
+    click(&mut h, "Analyze");
+    let mut done = false;
+    for _ in 0..1200 {
+        h.step();
+        if h.query_by_label("Open report").is_some() {
+            done = true;
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    assert!(done, "the analysis ended: {:?}", h.state().error());
+    h.get_by_label("magnitude_estimation");
+    let window = std::fs::read(out.join("report/summary.json")).unwrap();
+    let cli = dir.path().join("cli");
+    let o = Process::new(env!("CARGO_BIN_EXE_frictionlab"))
+        .arg("analyze")
+        .arg(&out)
+        .arg("--out")
+        .arg(&cli)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let line = std::fs::read(cli.join("summary.json")).unwrap();
+    assert!(
+        window == line,
+        "summary.json differs between the window and the command line"
+    );
+    assert!(out.join("report/report.html").is_file());
 }

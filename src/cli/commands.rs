@@ -242,10 +242,26 @@ pub(super) fn gui_command(
         ));
     }
     let mut errors = Vec::new();
+    if args.start {
+        if args.participant.trim().is_empty() {
+            errors.push(UserError::new(
+                "--start",
+                "needs --participant (and --protocol): the session to open",
+            ));
+        } else if let Err(why) = crate::results::check_participant(args.participant.trim()) {
+            errors.push(UserError::new("--participant", why));
+        }
+    }
     let lsl = load_lsl(&args.lsl, &mut errors);
     if !errors.is_empty() {
         return Err(errors.into());
     }
+    let start = start.or(args.start.then_some(crate::gui::AutoStart {
+        resume: false,
+        or_resume: true,
+        seed: None,
+        participant_index: None,
+    }));
     let interrupt = install_interrupt()?;
     crate::gui::run(crate::gui::Launch {
         protocol: args.protocol,
@@ -506,10 +522,12 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
                 participant: args.participant.clone(),
                 out: args.out.clone(),
                 device: args.device.clone(),
+                start: false,
                 lsl: args.lsl.clone(),
             },
             Some(crate::gui::AutoStart {
                 resume: args.resume,
+                or_resume: false,
                 seed: args.seed,
                 participant_index: args.participant_index,
             }),

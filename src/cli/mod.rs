@@ -72,6 +72,12 @@ struct GuiArgs {
     /// `sim` (the simulated device) or a serial port's path.
     #[arg(long, default_value = "sim", value_parser = parse_device)]
     device: DeviceChoice,
+    /// Open straight into a session of --protocol for --participant, with
+    /// no click on the setup screen: the participant's unfinished session
+    /// of that protocol is resumed, else a new one starts (so a lab can
+    /// launch each participant from a script).
+    #[arg(long, requires = "protocol")]
+    start: bool,
     #[command(flatten)]
     lsl: LslArgs,
 }
@@ -418,6 +424,7 @@ pub fn main() -> ExitCode {
                 participant: String::new(),
                 out: PathBuf::from("results"),
                 device: DeviceChoice::Simulated,
+                start: false,
                 lsl: LslArgs::default(),
             },
             None,

@@ -24,6 +24,7 @@
 mod frames;
 mod participant;
 mod plot;
+mod results;
 mod session;
 mod setup;
 
@@ -36,6 +37,7 @@ pub use participant::{WORKSPACE_HALF_M, to_m, to_screen};
 
 use crate::protocol::engine::{Answer, Choice, Input};
 use crate::session::{DeviceChoice, LiveSession, Phase};
+use results::ResultsPanel;
 use session::SessionPanel;
 use setup::SetupPanel;
 
@@ -71,6 +73,8 @@ pub struct Launch {
 pub struct AutoStart {
     /// Resume the participant's unfinished session.
     pub resume: bool,
+    /// Resume it if there is one, else start a new session (`gui --start`).
+    pub or_resume: bool,
     /// Plan seed of a new session (default: drawn at random).
     pub seed: Option<u64>,
     /// Counterbalancing index (default: participants already in the folder).
@@ -146,6 +150,14 @@ pub(crate) enum Command {
     HandTarget(Option<f64>),
     /// Save the note typed in into the session log.
     SaveNote,
+    /// Show the setup (false) or the results folder (true).
+    ShowResults(bool),
+    /// Analyse the results folder in the background.
+    Analyze,
+    /// Open the analysis report in the system's browser.
+    OpenReport,
+    /// Resume the unfinished session with this log.
+    ResumeLog(PathBuf),
 }
 
 /// The application: the setup and session panels, the live session, and
@@ -153,6 +165,11 @@ pub(crate) enum Command {
 pub struct FrictionlabApp {
     setup: SetupPanel,
     session: SessionPanel,
+    results: ResultsPanel,
+    /// The results panel is shown instead of the setup.
+    show_results: bool,
+    /// egui's clock at the last frame, s.
+    now: f64,
     live: Option<LiveSession>,
     error: Option<String>,
     /// The participant's magnitude being typed.
@@ -172,6 +189,9 @@ impl FrictionlabApp {
         let mut app = FrictionlabApp {
             setup: SetupPanel::new(launch),
             session: SessionPanel::default(),
+            results: ResultsPanel::default(),
+            show_results: false,
+            now: 0.0,
             live: None,
             error: None,
             answer: String::new(),
@@ -180,9 +200,8 @@ impl FrictionlabApp {
             interrupt,
         };
         if let Some(start) = start {
-            app.apply(Command::Start {
-                resume: start.resume,
-            });
+            let resume = start.resume || (start.or_resume && app.setup.has_unfinished());
+            app.apply(Command::Start { resume });
         }
         app
     }
@@ -262,6 +281,27 @@ impl FrictionlabApp {
                 }
                 Ok(())
             }
+            Command::ShowResults(show) => {
+                self.show_results = show;
+                Ok(())
+            }
+            Command::Analyze => {
+                self.results.start_analysis(self.setup.folder(), self.now);
+                Ok(())
+            }
+            Command::OpenReport => {
+                self.results.open_report();
+                Ok(())
+            }
+            Command::ResumeLog(log) => self.setup.use_session(&log).and_then(|()| {
+                self.show_results = false;
+                self.setup.start(true).map(|live| {
+                    self.live = Some(live);
+                    self.error = None;
+                    self.answer.clear();
+                    self.session.new_session();
+                })
+            }),
             Command::SaveNote => match self.session.note_to_save() {
                 None => Ok(()),
                 Some(text) => {
@@ -307,7 +347,25 @@ impl FrictionlabApp {
             ui.separator();
             self.session.ui(ui, live)
         } else {
-            self.setup.ui(ui)
+            let mut commands = Vec::new();
+            ui.horizontal(|ui| {
+                for (show, text) in [(false, "Set up a session"), (true, "Results")] {
+                    if ui
+                        .selectable_label(self.show_results == show, RichText::new(text).size(16.0))
+                        .clicked()
+                    {
+                        commands.push(Command::ShowResults(show));
+                    }
+                }
+            });
+            ui.separator();
+            if self.show_results {
+                let folder = self.setup.folder().to_owned();
+                commands.extend(self.results.ui(ui, &folder, self.now));
+            } else {
+                commands.extend(self.setup.ui(ui));
+            }
+            commands
         };
         ui.separator();
         ui.label(RichText::new(self.frames.summary()).small().weak());
@@ -318,6 +376,7 @@ impl FrictionlabApp {
 impl eframe::App for FrictionlabApp {
     fn logic(&mut self, ctx: &egui::Context, frame: &mut eframe::Frame) {
         let (now, dt) = ctx.input(|i| (i.time, f64::from(i.unstable_dt)));
+        self.now = now;
         if let Some(cpu) = frame.info().cpu_usage {
             self.frames.record(f64::from(cpu), dt);
         }

@@ -152,11 +152,15 @@ fn countdown(ui: &mut egui::Ui, what: &str, left_s: f64) {
     ui.label(RichText::new(text).size(22.0));
 }
 
+/// The Continue button; Space or Enter does the same (the participant
+/// may have a hand on the device), and the screen says so.
 fn continue_button(ui: &mut egui::Ui, commands: &mut Vec<Command>) {
     ui.add_space(12.0);
-    if ui.button(RichText::new("Continue").size(24.0)).clicked() {
+    let key = ui.input(|i| i.key_pressed(Key::Space) || i.key_pressed(Key::Enter));
+    if ui.button(RichText::new("Continue").size(24.0)).clicked() || key {
         commands.push(Command::Continue);
     }
+    ui.label(RichText::new("or press Space or Enter").size(18.0).weak());
 }
 
 /// The number entry: any text goes to the engine, which refuses empty,
@@ -184,6 +188,13 @@ fn magnitude_entry(
             )
             .labelled_by(label.id);
         let entered = entry.lost_focus() && ui.input(|i| i.key_pressed(Key::Enter));
+        // The entry takes the keyboard when nothing else has it, so a
+        // participant with a hand on the device types the number and
+        // presses Enter without the mouse (after Enter is read: asking for
+        // focus clears `lost_focus`).
+        if !entered && ui.memory(|m| m.focused().is_none()) {
+            entry.request_focus();
+        }
         if ui.button(RichText::new("Submit").size(28.0)).clicked() || entered {
             commands.push(Command::Magnitude(answer.clone()));
         }
@@ -255,7 +266,8 @@ fn paired(
 
 /// The workspace strip: the device's range, the Fitts targets, the cursor at
 /// the device's position (every frame) and the rendered force as an arrow.
-/// The pointer over it drives the simulated hand; a click is a Fitts click.
+/// The pointer over it, or dragging from it, drives the simulated hand; a
+/// click (or the release of a drag) is a Fitts click.
 fn workspace(
     ui: &mut egui::Ui,
     live: &LiveSession,
@@ -265,7 +277,7 @@ fn workspace(
 ) {
     let height = if fitts.is_some() { 220.0 } else { 140.0 };
     let width = ui.available_width().max(200.0);
-    let (rect, response) = ui.allocate_exact_size(vec2(width, height), Sense::click());
+    let (rect, response) = ui.allocate_exact_size(vec2(width, height), Sense::click_and_drag());
     *canvas = Some(rect);
     let to_px = |x_m: f64| to_screen(rect, x_m);
     let painter = ui.painter_at(rect);
@@ -312,9 +324,19 @@ fn workspace(
             Stroke::new(3.0, Color32::from_rgb(90, 160, 255)),
         );
     }
-    let target = response.hover_pos().map(|p| to_m(rect, p.x));
+    // The hand follows the pointer over the strip, and while the button is
+    // held from a press on the strip (a drag of the handle, which egui
+    // does not count as hovering), wherever the pointer goes.
+    let pointer = if response.is_pointer_button_down_on() || response.dragged() {
+        response.interact_pointer_pos()
+    } else {
+        response.hover_pos()
+    };
+    let target = pointer.map(|p| to_m(rect, p.x).clamp(-WORKSPACE_HALF_M, WORKSPACE_HALF_M));
     commands.push(Command::HandTarget(target));
-    if fitts.is_some() && response.clicked() {
+    // A Fitts tap is a press and release: a click, or the end of a drag
+    // (a press while moving).
+    if fitts.is_some() && (response.clicked() || response.drag_stopped()) {
         commands.push(Command::Click);
     }
 }

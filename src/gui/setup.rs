@@ -155,6 +155,24 @@ impl SetupPanel {
             });
     }
 
+    /// Sets the protocol and participant of a session found in the
+    /// results folder (its log's), to resume it.
+    pub(super) fn use_session(&mut self, log: &std::path::Path) -> Result<(), String> {
+        let read = read_log::<Registry>(log).map_err(|e| format!("error: {e}"))?;
+        let h = read.header;
+        let bytes = serde_json::to_vec_pretty(&h.protocol).map_err(|e| format!("error: {e}"))?;
+        self.choice = None;
+        self.file.clear();
+        self.participant.clone_from(&h.participant);
+        self.sessions = None;
+        self.loaded = Ok(Loaded::new(
+            format!("{} (from {})", h.protocol_id, log.display()),
+            h.protocol,
+            bytes,
+        ));
+        Ok(())
+    }
+
     /// Lists the serial ports again.
     pub(super) fn refresh_ports(&mut self) {
         self.ports = crate::device::list_ports();
@@ -238,6 +256,15 @@ impl SetupPanel {
         };
         let dir = ResultsDir::new(self.out.trim());
         LiveSession::start(&dir, &req).map_err(|e| format!("error: {e}"))
+    }
+
+    /// Whether the participant has an unfinished session of the protocol
+    /// in the folder, as the setup screen would offer to resume.
+    pub(super) fn has_unfinished(&mut self) -> bool {
+        self.refresh_sessions(f64::NEG_INFINITY);
+        self.sessions
+            .as_ref()
+            .is_some_and(|s| s.unfinished.is_some())
     }
 
     /// Recomputes the participant's sessions when protocol, folder or id

@@ -46,6 +46,60 @@ pub struct SessionFiles {
     pub csv: PathBuf,
 }
 
+/// One session of a results folder ([`ResultsDir::overview`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SessionOverview {
+    /// Its log.
+    pub log: PathBuf,
+    /// The protocol's id.
+    pub protocol_id: String,
+    /// The protocol's title.
+    pub protocol_title: String,
+    /// The participant.
+    pub participant: String,
+    /// Session number.
+    pub session: u32,
+    /// Trials done (where a resume would start).
+    pub done: usize,
+    /// Trials planned.
+    pub planned: usize,
+    /// Complete, unfinished, open elsewhere, or unreadable.
+    pub status: SessionStatus,
+}
+
+/// Where a session stands.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum SessionStatus {
+    /// It ended: every trial done, or ended by the experimenter.
+    Complete,
+    /// It stopped before its end and can be resumed.
+    Unfinished,
+    /// Another process has it open (its process id where the OS tells).
+    Open {
+        /// The holder's process id.
+        pid: Option<u32>,
+    },
+    /// Its log cannot be read (why).
+    Unreadable(String),
+}
+
+impl SessionStatus {
+    /// For a person: `complete`, `unfinished`, `open in another process
+    /// (pid N)`, `unreadable: ...`.
+    #[must_use]
+    pub fn describe(&self) -> String {
+        match self {
+            SessionStatus::Complete => "complete".to_owned(),
+            SessionStatus::Unfinished => "unfinished".to_owned(),
+            SessionStatus::Open { pid } => format!(
+                "open in another process{}",
+                lock::Holder { pid: *pid }.pid_text()
+            ),
+            SessionStatus::Unreadable(e) => format!("unreadable: {e}"),
+        }
+    }
+}
+
 impl ResultsDir {
     /// The folder at `root` (created when the first session starts).
     #[must_use]
@@ -86,6 +140,48 @@ impl ResultsDir {
             .collect();
         out.sort();
         out
+    }
+
+    /// Every session in the folder, as the results view lists it: whose,
+    /// of which protocol, how far, and whether it is complete, unfinished
+    /// (it can be resumed) or open in another process. Writes nothing.
+    #[must_use]
+    pub fn overview<K: Kinds>(&self) -> Vec<SessionOverview> {
+        self.logs()
+            .into_iter()
+            .map(|log| {
+                let busy = lock::open_elsewhere(&log);
+                match super::read_log::<K>(&log) {
+                    Ok(read) => SessionOverview {
+                        protocol_id: read.header.protocol_id.clone(),
+                        protocol_title: read.header.protocol.title.clone(),
+                        participant: read.header.participant.clone(),
+                        session: read.header.session,
+                        done: read.next_trial(),
+                        planned: read.header.planned_trials,
+                        status: match busy {
+                            Some(h) => SessionStatus::Open { pid: h.pid },
+                            None if read.ended => SessionStatus::Complete,
+                            None => SessionStatus::Unfinished,
+                        },
+                        log,
+                    },
+                    Err(e) => SessionOverview {
+                        protocol_id: String::new(),
+                        protocol_title: String::new(),
+                        participant: String::new(),
+                        session: 0,
+                        done: 0,
+                        planned: 0,
+                        status: match busy {
+                            Some(h) => SessionStatus::Open { pid: h.pid },
+                            None => SessionStatus::Unreadable(e.to_string()),
+                        },
+                        log,
+                    },
+                }
+            })
+            .collect()
     }
 
     /// The headers of every readable session log in the folder.

@@ -37,7 +37,10 @@ pub use export::{
     COMMON_COLUMNS, LSL_COLUMNS, data_cells, data_columns, data_csv, kinds_present,
     write_dataset_description,
 };
-pub use folder::{MAX_ID_CHARS, ResultsDir, SessionFiles, check_participant, file_key};
+pub use folder::{
+    MAX_ID_CHARS, ResultsDir, SessionFiles, SessionOverview, SessionStatus, check_participant,
+    file_key,
+};
 pub use lock::{FolderLock, Holder, lock_file, open_elsewhere};
 pub use session_log::{
     Header, LOG_FORMAT, LogLine, ReadLog, SessionLog, is_completed, log_json_schema, parse_log,
