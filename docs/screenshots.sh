@@ -100,6 +100,17 @@ for x in 1283 1637 1283 1637; do xdotool mousemove "$x" 193; sleep 0.6; click "$
 sleep 0.5
 both session-fitts-prompt
 
+# The Results tab over this script's results folder: every session and its
+# status, then the analysis the Analyze button runs.
+pkill -f "$bin" || true
+sleep 0.5
+"$bin" gui --participant p01 --out "$work/results" >>"$work/gui.log" 2>&1 &
+sleep 3
+click 177 52 1
+experimenter experimenter-results
+click 38 "$(( 134 + 23 * $(ls "$work/results/logs" | wc -l) ))" 6
+experimenter experimenter-results-analysis
+
 # Frame time with a live session on the simulated device: 30 s of the full
 # magnitude-estimation protocol with the mouse stroking, then Ctrl+Q (the
 # window prints its frame-time statistics on exit).

@@ -992,9 +992,12 @@ fn the_results_panel_shows_complete_unfinished_and_open_sessions_and_resumes_iss
         .filter_map(|n| n.accesskit_node().label())
         .filter(|l| l.starts_with("Resume"))
         .collect();
-    assert_eq!(resumes, vec!["Resume p02 session 1".to_owned()]);
+    assert_eq!(
+        resumes,
+        vec!["Resume p02 session 1 of magnitude-quick".to_owned()]
+    );
     drop(held);
-    click(&mut h, "Resume p02 session 1");
+    click(&mut h, "Resume p02 session 1 of magnitude-quick");
     assert!(h.state().error().is_none(), "{:?}", h.state().error());
     let l = live(&h);
     assert_eq!(l.participant(), "p02");

@@ -194,11 +194,19 @@ fn sessions_table(ui: &mut egui::Ui, sessions: &[SessionOverview], commands: &mu
                 ui.label(&s.participant);
                 ui.label(&s.protocol_id).on_hover_text(&s.protocol_title);
                 ui.label(s.session.to_string());
-                ui.label(format!("{} of {}", s.done, s.planned));
+                // A kind whose trials adapt to the answers plans none.
+                ui.label(if s.planned == 0 {
+                    format!("{} (adaptive)", s.done)
+                } else {
+                    format!("{} of {}", s.done, s.planned)
+                });
                 ui.label(s.status.describe());
                 if s.status == SessionStatus::Unfinished {
                     if ui
-                        .button(format!("Resume {} session {}", s.participant, s.session))
+                        .button(format!(
+                            "Resume {} session {} of {}",
+                            s.participant, s.session, s.protocol_id
+                        ))
                         .clicked()
                     {
                         commands.push(Command::ResumeLog(s.log.clone()));
