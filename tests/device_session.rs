@@ -725,6 +725,15 @@ fn resends_over_a_lagging_link_restart_nothing_and_rerender_bit_exact() {
         ));
         let text = std::fs::read_to_string(&path).unwrap();
         let rows = frictionlab::rerender::parse_stream("stream", &text).unwrap();
+        // The trial's own model shows in effect within its stream (its
+        // select arrives 200 ms late, inside the 2 s exploration); the
+        // previous trial's clear may land between the two streams.
+        assert!(
+            rows.iter()
+                .any(|r| r.selected && record.rendering[r.render].model.is_some()),
+            "{}: the trial's model never showed in effect",
+            path.display()
+        );
         for w in rows.windows(2).filter(|w| w[1].selected) {
             selects += 1;
             // (A device that a late `Hello` started afresh while connecting
@@ -738,7 +747,7 @@ fn resends_over_a_lagging_link_restart_nothing_and_rerender_bit_exact() {
         }
     }
     assert!(
-        selects >= 12,
-        "{selects} selects: a clear and a model per trial"
+        selects >= 6,
+        "{selects} selects: at least a model per trial"
     );
 }
