@@ -21,15 +21,61 @@ pub fn text(s: &str) -> String {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Num(pub f64);
 
+/// A float's text on the stack (the longest is 24 bytes).
+struct Buf {
+    bytes: [u8; 40],
+    len: usize,
+}
+
+impl Buf {
+    fn of(x: f64, exp: bool) -> Option<Buf> {
+        use std::fmt::Write as _;
+        let mut b = Buf {
+            bytes: [0; 40],
+            len: 0,
+        };
+        let r = if exp {
+            write!(b, "{x:e}")
+        } else {
+            write!(b, "{x}")
+        };
+        r.ok().map(|()| b)
+    }
+    fn text(&self) -> &str {
+        std::str::from_utf8(&self.bytes[..self.len]).unwrap_or("")
+    }
+}
+
+impl std::fmt::Write for Buf {
+    fn write_str(&mut self, s: &str) -> std::fmt::Result {
+        let end = self.len + s.len();
+        self.bytes
+            .get_mut(self.len..end)
+            .ok_or(std::fmt::Error)?
+            .copy_from_slice(s.as_bytes());
+        self.len = end;
+        Ok(())
+    }
+}
+
 impl std::fmt::Display for Num {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let plain = self.0.to_string();
-        let exp = format!("{:e}", self.0);
-        f.write_str(if exp.len() < plain.len() {
-            &exp
-        } else {
-            &plain
-        })
+        // Longer than the buffer (a huge or tiny number): the exponent
+        // form is the shorter.
+        let Some(plain) = Buf::of(self.0, false) else {
+            return write!(f, "{:e}", self.0);
+        };
+        // The exponent form can be shorter only with two or more zeros
+        // after the point (0.001) or three at the end of a whole number
+        // (1000); otherwise the plain form is as short or shorter.
+        let digits = plain.text().trim_start_matches('-');
+        if (digits.starts_with("0.00") || digits.ends_with("000"))
+            && let Some(exp) = Buf::of(self.0, true)
+            && exp.len < plain.len
+        {
+            return f.write_str(exp.text());
+        }
+        f.write_str(plain.text())
     }
 }
 
