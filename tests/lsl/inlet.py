@@ -8,7 +8,8 @@ Resolves the marker stream (name NAME, type Markers) and the device stream
 session_stop markers have come (a killed run sends none: the test says how
 many runs end), then writes what came to OUT.json: every marker with its
 timestamp, the device samples' count, first and last timestamps, whether
-timestamps increased, the streams' info (source_id, nominal rate) and the
+timestamps increased, the gaps (intervals over 1.5 sample periods: how many,
+and their total beyond one period), the streams' info (source_id, nominal rate) and the
 channels' label, unit and type read back from the description.
 """
 
@@ -61,6 +62,7 @@ def main():
     device_info = None
     received = []
     count, first, last, increasing, prev = 0, None, None, True, None
+    gaps, gap_s, period = 0, 0.0, None
     ticks = []
     ended = 0
     quiet_since = None
@@ -80,6 +82,7 @@ def main():
                 device = pylsl.StreamInlet(found, max_buflen=360, recover=True)
                 device.open_stream(timeout=10.0)
                 device_info = device.info(timeout=10.0)
+                period = 1.0 / device_info.nominal_srate()
         got = 0
         if device is not None:
             chunk, stamps = device.pull_chunk(timeout=0.0, max_samples=100000)
@@ -87,6 +90,9 @@ def main():
             for s, t in zip(chunk, stamps):
                 if prev is not None and t <= prev:
                     increasing = False
+                if prev is not None and t - prev > 1.5 * period:
+                    gaps += 1
+                    gap_s += t - prev - period
                 prev = t
                 if first is None:
                     first = t
@@ -121,6 +127,8 @@ def main():
             "first": first,
             "last": last,
             "increasing": increasing,
+            "gaps": gaps,
+            "gap_s": gap_s,
             "ticks_consecutive": ticks_consecutive,
             "ticks": len(ticks),
         },
