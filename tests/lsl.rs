@@ -205,25 +205,25 @@ fn assert_device(got: &Value, channels: &[&str], writes: Option<usize>) -> f64 {
     let rate = d["nominal_srate"].as_f64().unwrap();
     let span = d["last"].as_f64().unwrap() - d["first"].as_f64().unwrap();
     let count = d["count"].as_f64().unwrap();
-    match writes {
-        Some(writes) => {
-            let gaps = d["gaps"].as_u64().unwrap();
-            let gap_s = d["gap_s"].as_f64().unwrap();
-            assert!(gaps as usize <= writes, "{gaps} pauses, {writes} writes");
-            let expected = rate * (span - gap_s) + 1.0;
-            assert!(
-                (count - expected).abs() <= 2.0,
-                "{count} samples over {span} s less {gap_s} s of {gaps} pauses \
-                 at {rate} Hz (expected {expected})"
-            );
-        }
-        None => {
-            let expected = rate * span + 1.0;
-            assert!(
-                (count - expected).abs() <= 0.01 * expected,
-                "{count} samples over {span} s at {rate} Hz (expected {expected})"
-            );
-        }
+    if let Some(writes) = writes {
+        let gaps = d["gaps"].as_u64().unwrap();
+        let gap_s = d["gap_s"].as_f64().unwrap();
+        assert!(
+            gaps <= u64::try_from(writes).unwrap(),
+            "{gaps} pauses, {writes} writes"
+        );
+        let expected = rate * (span - gap_s) + 1.0;
+        assert!(
+            (count - expected).abs() <= 2.0,
+            "{count} samples over {span} s less {gap_s} s of {gaps} pauses \
+             at {rate} Hz (expected {expected})"
+        );
+    } else {
+        let expected = rate * span + 1.0;
+        assert!(
+            (count - expected).abs() <= 0.01 * expected,
+            "{count} samples over {span} s at {rate} Hz (expected {expected})"
+        );
     }
     count
 }
