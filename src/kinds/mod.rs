@@ -184,6 +184,13 @@ macro_rules! kinds {
                 }
             }
 
+            fn template(kind: &str) -> Option<Value> {
+                match kind {
+                    $($(#[cfg($cfg)])? $name => Some(<$module::$kind as StudyKind>::template()),)*
+                    _ => None,
+                }
+            }
+
             fn check_design(design: &Design, c: &mut Checks) {
                 match design {
                     $($(#[cfg($cfg)])? Design::$variant(d) => <$module::$kind as StudyKind>::check(d, c),)*

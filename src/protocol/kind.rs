@@ -77,6 +77,8 @@ pub trait Kinds: Debug + Clone + Copy + PartialEq + Send + Sync + 'static {
     fn read_design(w: &mut Walk, v: &Value, path: &str) -> Option<Self::Design>;
     /// Value checks on a read design.
     fn check_design(design: &Self::Design, c: &mut Checks);
+    /// A new design of the kind named `kind` ([`StudyKind::template`]).
+    fn template(kind: &str) -> Option<Value>;
     /// The blocks of the fixed plan, before ordering.
     fn blocks(design: &Self::Design) -> Vec<Block<Self::Trial>>;
     /// A phase before the first trial: its instructions and duration, s.
@@ -174,6 +176,13 @@ pub trait StudyKind: Sized + 'static {
 
     /// Value checks on a read design (ranges, references, zero trials).
     fn check(design: &Self::Design, c: &mut Checks);
+
+    /// A new design of this kind (its `design` object, tagged `kind`), valid
+    /// as it stands and small: where the window's protocol builder starts a
+    /// new protocol of this kind. The builder's form is the kind's design
+    /// schema (its fields, their doc comments and units), so this and the
+    /// design's type are all a kind says about its form.
+    fn template() -> Value;
 
     /// The blocks of the fixed plan, before ordering; a kind with its own
     /// [`StudyKind::source`] needs none.

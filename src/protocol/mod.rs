@@ -30,6 +30,7 @@
 
 pub mod check;
 pub mod engine;
+pub mod form;
 pub mod kind;
 pub mod load;
 pub mod plan;

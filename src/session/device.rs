@@ -153,6 +153,40 @@ pub(super) enum Device {
 }
 
 impl Device {
+    /// The device `choice` names: the simulated apparatus with a hand of
+    /// `hand_mass_kg` on it, or the haptic loop on a port at `rate_hz`.
+    pub(super) fn open(
+        choice: &super::DeviceChoice,
+        rate_hz: f64,
+        hand_mass_kg: f64,
+    ) -> Result<Self, super::SessionError> {
+        use crate::device::sim::Apparatus;
+        use crate::friction::StepParams;
+        Ok(match choice {
+            super::DeviceChoice::Simulated => {
+                let step = StepParams::default();
+                Device::Sim {
+                    device: Box::new(SimDevice::new(Apparatus::default(), hand_mass_kg, step)),
+                    dt: step.dt(),
+                    render: 0,
+                }
+            }
+            super::DeviceChoice::Port(path) => {
+                let step = StepParams {
+                    rate_hz,
+                    ..StepParams::default()
+                };
+                let haptic = HapticLoop::start(path.clone(), step, true)
+                    .map_err(super::SessionError::Loop)?;
+                Device::Port(Box::new(Port::new(
+                    haptic,
+                    rate_hz,
+                    step.force_limit.newtons(),
+                )))
+            }
+        })
+    }
+
     /// Renders `model` from now on (`None`: nothing), as the session's
     /// render number `render`.
     pub(super) fn render(&mut self, render: u32, model: Option<&ModelParams>) {

@@ -60,6 +60,7 @@
 //! behind. Notes typed before then wait for the log.
 
 pub mod device;
+pub mod feel;
 pub mod headless;
 pub mod lsl;
 pub mod open;
@@ -72,6 +73,7 @@ use std::collections::VecDeque;
 use std::path::PathBuf;
 
 pub use device::{DeviceStatus, HAND_EVERY_S, percentile};
+pub use feel::Feel;
 pub use headless::{
     SessionOutcome, Simulation, participant_seed, run_device, run_planned, run_simulated, sim_id,
     sim_participant, simulate_in_memory, simulate_participants,
@@ -86,15 +88,13 @@ pub use responder::{
 pub use view::{Phase, Progress, TRACE_EVERY_S, TRACE_LENGTH_S, TracePoint, View};
 
 use crate::device::DeviceSample;
-use crate::device::haptic::HapticLoop;
 use crate::device::link::LinkState;
-use crate::device::sim::{Apparatus, SimDevice};
-use crate::friction::{ModelParams, StepParams};
+use crate::friction::ModelParams;
 use crate::kinds::{Action, Engine, Header, LogLine, ReadLog, Registry};
 use crate::protocol::engine::TrialSource;
 use crate::protocol::engine::{Input, RenderMode};
 use crate::results::{ResultsDir, ResultsError};
-use device::{Device, Port};
+use device::Device;
 use renders::{How, Renders};
 use view::Trace;
 
@@ -319,36 +319,10 @@ impl<R: Responder> Session<R> {
         responder: R,
     ) -> Result<Self, SessionError> {
         let device_label = device.label();
-        let device = match device {
-            DeviceChoice::Simulated => {
-                if !matches!(log, Log::Memory(_)) {
-                    log.open()?;
-                }
-                let step = StepParams::default();
-                Device::Sim {
-                    device: Box::new(SimDevice::new(
-                        Apparatus::default(),
-                        responder.hand_mass_kg(),
-                        step,
-                    )),
-                    dt: step.dt(),
-                    render: 0,
-                }
-            }
-            DeviceChoice::Port(path) => {
-                let step = StepParams {
-                    rate_hz,
-                    ..StepParams::default()
-                };
-                let haptic =
-                    HapticLoop::start(path.clone(), step, true).map_err(SessionError::Loop)?;
-                Device::Port(Box::new(Port::new(
-                    haptic,
-                    rate_hz,
-                    step.force_limit.newtons(),
-                )))
-            }
-        };
+        if matches!(device, DeviceChoice::Simulated) && !matches!(log, Log::Memory(_)) {
+            log.open()?;
+        }
+        let device = Device::open(device, rate_hz, responder.hand_mass_kg())?;
         // How the simulated device steps, for its streams' rows (a port's
         // ticks say how each was stepped).
         let how = device.sim_how().unwrap_or(How {

@@ -448,6 +448,32 @@ impl StudyKind for Discrimination {
         })
     }
 
+    /// The static coefficient of seed 000's god object against one
+    /// reference, one up two down (70.7% correct).
+    fn template() -> Value {
+        serde_json::json!({
+            "kind": "discrimination",
+            "reference": {"model": "god-object-constant"},
+            "parameter": "static_friction.mu_s",
+            "levels": [1.0],
+            "comparison": "ratio",
+            "question": "Which stimulus felt like more friction?",
+            "exploration_s": 3.0,
+            "criterion": 0.75,
+            "method": {
+                "kind": "staircase",
+                "start": 0.4,
+                "steps": [0.1, 0.05],
+                "down": 2,
+                "min": 0.01,
+                "max": 1.0,
+                "stop_reversals": 8,
+                "stop_trials": 60
+            },
+            "fit": {"shape": "weibull", "max_lapse": 0.06, "bootstrap": 200}
+        })
+    }
+
     fn check(d: &DiscriminationDesign, c: &mut Checks) {
         c.positive("exploration_s", d.exploration_s);
         if d.question.trim().is_empty() {

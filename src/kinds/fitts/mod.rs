@@ -290,6 +290,24 @@ impl StudyKind for Fitts {
         })
     }
 
+    /// Seed 002's apparatus alone and its viscous condition, at one
+    /// amplitude and width.
+    fn template() -> Value {
+        serde_json::json!({
+            "kind": "fitts",
+            "cursor_m": 0.001,
+            "taps": 10,
+            "id_formula": "shannon",
+            "tolerance": "width_minus_cursor",
+            "timeout_s": 60.0,
+            "conditions": [
+                {"id": "baseline", "model": {"model": "none"}},
+                {"id": "viscous", "model": {"model": "viscous"}}
+            ],
+            "levels": [{"amplitude_m": 0.016, "width_m": 0.003}]
+        })
+    }
+
     fn check(d: &FittsDesign, c: &mut Checks) {
         c.positive("cursor_m", d.cursor_m);
         c.positive("timeout_s", d.timeout_s);

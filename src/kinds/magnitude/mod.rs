@@ -287,6 +287,23 @@ impl StudyKind for Magnitude {
         })
     }
 
+    /// Seed 001's tactile stick-slip display at three coefficient pairs.
+    fn template() -> Value {
+        serde_json::json!({
+            "kind": "magnitude_estimation",
+            "exploration_s": 10.0,
+            "sets": [{
+                "display": "tactile",
+                "model": {"model": "stick-slip-tactile"},
+                "stimuli": [
+                    {"mu_s": 0.4, "mu_k": 0.2},
+                    {"mu_s": 0.5, "mu_k": 0.3},
+                    {"mu_s": 0.6, "mu_k": 0.4}
+                ]
+            }]
+        })
+    }
+
     fn check(d: &MagnitudeDesign, c: &mut Checks) {
         c.positive("exploration_s", d.exploration_s);
         if let Some(scaling) = &d.scaling {

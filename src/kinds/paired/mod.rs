@@ -102,6 +102,21 @@ impl StudyKind for Paired {
         })
     }
 
+    /// Seed 000's two god-object renderings (the quick protocol's pair).
+    fn template() -> Value {
+        serde_json::json!({
+            "kind": "paired_comparison",
+            "reference_s": 10.0,
+            "reference_instructions": "Slide your finger on the real surface for a moment.",
+            "exploration_s": 10.0,
+            "conditions": [
+                {"id": "time_constant", "model": {"model": "god-object-constant"}},
+                {"id": "time_varying", "model": {"model": "god-object-time-varying"}}
+            ],
+            "pairs": [["time_constant", "time_varying"]]
+        })
+    }
+
     fn check(d: &PairedDesign, c: &mut Checks) {
         c.non_negative("reference_s", d.reference_s);
         c.positive("exploration_s", d.exploration_s);

@@ -118,6 +118,18 @@ impl StudyKind for Staircase {
         })
     }
 
+    /// A stick-slip reference, differences of 0.1 in mu_s.
+    fn template() -> Value {
+        serde_json::json!({
+            "kind": "toy_staircase",
+            "reference": {"model": "stick-slip-force"},
+            "start_delta": 0.3,
+            "step": 0.1,
+            "reversals": 4,
+            "exploration_s": 2.0
+        })
+    }
+
     fn check(d: &StaircaseDesign, c: &mut Checks) {
         if coefficients(&d.reference).is_none() {
             c.err("reference.model", "the reference needs a stick-slip model");
