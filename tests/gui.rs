@@ -1043,3 +1043,177 @@ fn analyze_from_the_window_writes_the_summary_the_command_line_writes_issue_37()
     );
     assert!(out.join("report/report.html").is_file());
 }
+
+/// Opens the builder tab.
+fn builder(h: &mut Harness<'_, FrictionlabApp>) {
+    click(h, "Build a protocol");
+}
+
+/// `frictionlab validate file`: its exit status and its output.
+fn validate(file: &Path) -> (bool, String) {
+    let o = Process::new(env!("CARGO_BIN_EXE_frictionlab"))
+        .args(["validate", file.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let text =
+        String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
+    (o.status.success(), text)
+}
+
+#[test]
+fn a_protocol_built_new_of_each_kind_is_saved_valid_and_simulates_issue_37() {
+    use frictionlab::protocol::kind::Kinds;
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(&dir.path().join("results"), "p50", None);
+    builder(&mut h);
+    for kind in Registry::KINDS {
+        click(&mut h, kind.name);
+        h.get_by_label(&format!("Editing: new {}", kind.name));
+        let file = dir.path().join(format!("built-{}.json", kind.name));
+        type_into(&mut h, "Protocol file", file.to_str().unwrap());
+        click(&mut h, "Save");
+        h.get_by_label(&format!("saved {}", file.display()));
+        let (ok, said) = validate(&file);
+        assert!(ok, "{}: {said}", kind.name);
+        assert!(
+            said.starts_with(&format!("ok: {}: {} ", file.display(), kind.name)),
+            "{said}"
+        );
+        let out = dir.path().join(format!("sim-{}", kind.name));
+        let o = Process::new(env!("CARGO_BIN_EXE_frictionlab"))
+            .args([
+                "simulate",
+                file.to_str().unwrap(),
+                "--participants",
+                "1",
+                "--seed",
+                "5",
+            ])
+            .args(["--out", out.to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "{}: {}",
+            kind.name,
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let data: Vec<_> = std::fs::read_dir(out.join("data")).unwrap().collect();
+        assert!(!data.is_empty(), "{}: simulate wrote no data", kind.name);
+        // Saved again, the same protocol is the same text.
+        let first = std::fs::read_to_string(&file).unwrap();
+        click(&mut h, "Save");
+        assert_eq!(std::fs::read_to_string(&file).unwrap(), first);
+    }
+    // A file it did not open or save is never replaced.
+    let other = dir.path().join("other.json");
+    std::fs::write(&other, "{}").unwrap();
+    type_into(&mut h, "Protocol file", other.to_str().unwrap());
+    click(&mut h, "Save");
+    assert_eq!(std::fs::read_to_string(&other).unwrap(), "{}");
+    h.get_by_label(&format!(
+        "not saved: {} exists (open it to edit it, or choose another name)",
+        other.display()
+    ));
+}
+
+#[test]
+fn an_invalid_edit_shows_validates_message_at_its_field_and_save_waits_for_the_fix_issue_37() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(&dir.path().join("results"), "p51", None);
+    builder(&mut h);
+    click(&mut h, "magnitude_estimation");
+    let file = dir.path().join("edited.json");
+    type_into(&mut h, "Protocol file", file.to_str().unwrap());
+    for bad in ["-2", "2 s"] {
+        type_into(&mut h, "exploration_s (s)", bad);
+        // The check runs after the frame that took the edit.
+        h.step();
+        // What validate says of the same protocol, written by hand.
+        let by_hand = dir.path().join("by-hand.json");
+        let mut v: serde_json::Value = serde_json::from_str(
+            &serde_json::to_string(&frictionlab::protocol::form::new_protocol::<Registry>(
+                "magnitude_estimation",
+            ))
+            .unwrap(),
+        )
+        .unwrap();
+        v["design"]["exploration_s"] = match bad.parse::<f64>() {
+            Ok(x) => x.into(),
+            Err(_) => bad.into(),
+        };
+        std::fs::write(&by_hand, v.to_string()).unwrap();
+        let (ok, said) = validate(&by_hand);
+        assert!(!ok);
+        let prefix = format!("error: {}: ", by_hand.display());
+        let line = said.lines().find(|l| l.starts_with(&prefix)).unwrap();
+        let message = line.strip_prefix(&prefix).unwrap();
+        assert!(message.starts_with("design.exploration_s: "), "{message}");
+        // The window shows it right under the field.
+        let field = h
+            .get_by_role_and_label(Role::TextInput, "exploration_s (s)")
+            .rect();
+        let shown = h.get_by_label(message).rect();
+        assert!(
+            shown.top() >= field.bottom() - 1.0 && shown.top() - field.bottom() < 20.0,
+            "{message} at {shown:?}, its field at {field:?}"
+        );
+        assert!(h.get_by_label("Save").accesskit_node().is_disabled());
+        h.get_by_label("Save").click();
+        h.step();
+        assert!(!file.exists(), "saved while invalid");
+    }
+    type_into(&mut h, "exploration_s (s)", "4.5");
+    h.step();
+    assert!(
+        h.query_by_label_contains("design.exploration_s: ")
+            .is_none()
+    );
+    h.get_by_label("ok: magnitude_estimation 'new-magnitude-estimation', 3 trials per session");
+    click(&mut h, "Save");
+    let (ok, said) = validate(&file);
+    assert!(ok, "{said}");
+    let saved: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    assert_eq!(saved["design"]["exploration_s"], 4.5);
+    // Straight to a session with it.
+    click(&mut h, "Use for a session");
+    h.get_by_label("Start new session");
+    h.get_by_label_contains(&file.display().to_string());
+}
+
+#[test]
+fn feeling_a_condition_moves_the_hand_under_the_pointer_issue_37() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(&dir.path().join("results"), "p52", None);
+    builder(&mut h);
+    click(&mut h, "fitts");
+    // The new Fitts protocol's first condition: the apparatus alone.
+    click(&mut h, "Feel it on the simulated device");
+    let readout = |h: &Harness<'_, FrictionlabApp>| {
+        let node = h.get_by_label_contains(" · position ");
+        let text = node.accesskit_node().value().unwrap_or_default();
+        let mm: f64 = text
+            .split(" · position ")
+            .nth(1)
+            .and_then(|t| t.split(' ').next())
+            .and_then(|t| t.parse().ok())
+            .unwrap();
+        (text, mm, node.rect())
+    };
+    let (text, at_rest, below) = readout(&h);
+    assert!(text.starts_with("none"), "{text}");
+    assert!(at_rest.abs() < 0.5, "{text}");
+    // The strip is above the readout: the pointer on it, right of centre,
+    // holds the hand there.
+    let button = h.get_by_label("Stop feeling").rect();
+    let y = f32::midpoint(button.bottom(), below.top());
+    h.hover_at(egui::pos2(button.left() + 400.0, y));
+    for _ in 0..20 {
+        h.step();
+    }
+    let (text, moved, _) = readout(&h);
+    assert!(moved > 2.0, "{text}");
+    click(&mut h, "Stop feeling");
+    assert!(h.query_by_label_contains(" · position ").is_none());
+}

@@ -21,6 +21,7 @@
 //! its live `plot`, and `participant` (the participant's screens); `frames`
 //! keeps the frame-time statistics.
 
+mod builder;
 mod frames;
 mod participant;
 mod plot;
@@ -37,6 +38,7 @@ pub use participant::{WORKSPACE_HALF_M, to_m, to_screen};
 
 use crate::protocol::engine::{Answer, Choice, Input};
 use crate::session::{DeviceChoice, LiveSession, Phase};
+use builder::BuilderPanel;
 use results::ResultsPanel;
 use session::SessionPanel;
 use setup::SetupPanel;
@@ -150,8 +152,10 @@ pub(crate) enum Command {
     HandTarget(Option<f64>),
     /// Save the note typed in into the session log.
     SaveNote,
-    /// Show the setup (false) or the results folder (true).
-    ShowResults(bool),
+    /// Show the setup, the results folder or the protocol builder.
+    Show(Tab),
+    /// Set up a session with the protocol file just saved by the builder.
+    UseProtocol(PathBuf),
     /// Analyse the results folder in the background.
     Analyze,
     /// Open the analysis report in the system's browser.
@@ -160,14 +164,26 @@ pub(crate) enum Command {
     ResumeLog(PathBuf),
 }
 
+/// The experimenter's panels when no session is open.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Tab {
+    /// Set up (and start or resume) a session.
+    Setup,
+    /// The results folder at a glance, and its analysis.
+    Results,
+    /// The protocol builder.
+    Builder,
+}
+
 /// The application: the setup and session panels, the live session, and
 /// the participant's view.
 pub struct FrictionlabApp {
     setup: SetupPanel,
     session: SessionPanel,
     results: ResultsPanel,
-    /// The results panel is shown instead of the setup.
-    show_results: bool,
+    builder: BuilderPanel,
+    /// The panel shown when no session is open.
+    tab: Tab,
     /// egui's clock at the last frame, s.
     now: f64,
     live: Option<LiveSession>,
@@ -190,7 +206,8 @@ impl FrictionlabApp {
             setup: SetupPanel::new(launch),
             session: SessionPanel::default(),
             results: ResultsPanel::default(),
-            show_results: false,
+            builder: BuilderPanel::default(),
+            tab: Tab::Setup,
             now: 0.0,
             live: None,
             error: None,
@@ -281,8 +298,13 @@ impl FrictionlabApp {
                 }
                 Ok(())
             }
-            Command::ShowResults(show) => {
-                self.show_results = show;
+            Command::Show(tab) => {
+                self.tab = tab;
+                Ok(())
+            }
+            Command::UseProtocol(path) => {
+                self.setup.use_file(&path);
+                self.tab = Tab::Setup;
                 Ok(())
             }
             Command::Analyze => {
@@ -294,7 +316,7 @@ impl FrictionlabApp {
                 Ok(())
             }
             Command::ResumeLog(log) => self.setup.use_session(&log).and_then(|()| {
-                self.show_results = false;
+                self.tab = Tab::Setup;
                 self.setup.start(true).map(|live| {
                     self.live = Some(live);
                     self.error = None;
@@ -349,21 +371,30 @@ impl FrictionlabApp {
         } else {
             let mut commands = Vec::new();
             ui.horizontal(|ui| {
-                for (show, text) in [(false, "Set up a session"), (true, "Results")] {
+                for (tab, text) in [
+                    (Tab::Setup, "Set up a session"),
+                    (Tab::Results, "Results"),
+                    (Tab::Builder, "Build a protocol"),
+                ] {
                     if ui
-                        .selectable_label(self.show_results == show, RichText::new(text).size(16.0))
+                        .selectable_label(self.tab == tab, RichText::new(text).size(16.0))
                         .clicked()
                     {
-                        commands.push(Command::ShowResults(show));
+                        commands.push(Command::Show(tab));
                     }
                 }
             });
             ui.separator();
-            if self.show_results {
-                let folder = self.setup.folder().to_owned();
-                commands.extend(self.results.ui(ui, &folder, self.now));
-            } else {
-                commands.extend(self.setup.ui(ui));
+            match self.tab {
+                Tab::Setup => commands.extend(self.setup.ui(ui)),
+                Tab::Results => {
+                    let folder = self.setup.folder().to_owned();
+                    commands.extend(self.results.ui(ui, &folder, self.now));
+                }
+                Tab::Builder => {
+                    let device = self.setup.device().clone();
+                    commands.extend(self.builder.ui(ui, self.now, &device));
+                }
             }
             commands
         };

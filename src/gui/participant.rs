@@ -314,31 +314,41 @@ fn workspace(
         [pos2(x, rect.top() + 8.0), pos2(x, rect.bottom() - 8.0)],
         Stroke::new(1.0, Color32::from_gray(200)),
     );
-    // Force arrow: 1 N is 40 px, capped to the strip.
-    #[expect(clippy::cast_possible_truncation, reason = "pixels")]
-    let len = (sample.force_n * 40.0).clamp(-f64::from(width) / 2.0, f64::from(width) / 2.0) as f32;
-    if len.abs() > 1.0 {
-        painter.arrow(
-            pos2(x, mid + 40.0),
-            vec2(len, 0.0),
-            Stroke::new(3.0, Color32::from_rgb(90, 160, 255)),
-        );
-    }
-    // The hand follows the pointer over the strip, and while the button is
-    // held from a press on the strip (a drag of the handle, which egui
-    // does not count as hovering), wherever the pointer goes.
-    let pointer = if response.is_pointer_button_down_on() || response.dragged() {
-        response.interact_pointer_pos()
-    } else {
-        response.hover_pos()
-    };
-    let target = pointer.map(|p| to_m(rect, p.x).clamp(-WORKSPACE_HALF_M, WORKSPACE_HALF_M));
-    commands.push(Command::HandTarget(target));
+    force_arrow(&painter, pos2(x, mid + 40.0), sample.force_n, width);
+    // The hand follows the pointer (see `hand_target`).
+    commands.push(Command::HandTarget(hand_target(rect, &response)));
     // A Fitts tap is a press and release: a click, or the end of a drag
     // (a press while moving).
     if fitts.is_some() && (response.clicked() || response.drag_stopped()) {
         commands.push(Command::Click);
     }
+}
+
+/// The rendered force as an arrow from `at`: 1 N is 40 px, capped to
+/// half the strip's `width`.
+pub(super) fn force_arrow(painter: &egui::Painter, at: egui::Pos2, force_n: f64, width: f32) {
+    #[expect(clippy::cast_possible_truncation, reason = "pixels")]
+    let len = (force_n * 40.0).clamp(-f64::from(width) / 2.0, f64::from(width) / 2.0) as f32;
+    if len.abs() > 1.0 {
+        painter.arrow(
+            at,
+            vec2(len, 0.0),
+            Stroke::new(3.0, Color32::from_rgb(90, 160, 255)),
+        );
+    }
+}
+
+/// Where the pointer holds the hand over the strip `rect`, m: under the
+/// pointer while it hovers, and while the button is held from a press on
+/// the strip (a drag of the handle, which egui does not count as
+/// hovering), wherever the pointer goes.
+pub(super) fn hand_target(rect: Rect, response: &egui::Response) -> Option<f64> {
+    let pointer = if response.is_pointer_button_down_on() || response.dragged() {
+        response.interact_pointer_pos()
+    } else {
+        response.hover_pos()
+    };
+    pointer.map(|p| to_m(rect, p.x).clamp(-WORKSPACE_HALF_M, WORKSPACE_HALF_M))
 }
 
 /// Workspace position (m) to screen x (px).

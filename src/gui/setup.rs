@@ -155,6 +155,17 @@ impl SetupPanel {
             });
     }
 
+    /// Loads the protocol file at `path` (one the builder saved).
+    pub(super) fn use_file(&mut self, path: &std::path::Path) {
+        self.file = path.display().to_string();
+        self.load_file();
+    }
+
+    /// The device sessions run on.
+    pub(super) fn device(&self) -> &DeviceChoice {
+        &self.device
+    }
+
     /// Sets the protocol and participant of a session found in the
     /// results folder (its log's), to resume it.
     pub(super) fn use_session(&mut self, log: &std::path::Path) -> Result<(), String> {

@@ -491,4 +491,43 @@ mod tests {
         assert_eq!(track(dir.path()), track(whole.path()));
         assert_eq!(csv(dir.path()), csv(whole.path()), "byte-identical data");
     }
+
+    /// The seam of issue 37: the window's protocol builder draws this
+    /// kind's form from this folder alone (its design's fields and doc
+    /// comments, its template). Every field of `StaircaseDesign` is on the
+    /// form of a new toy staircase, and the new protocol is valid; a field
+    /// added here is on the form with no change anywhere else.
+    #[test]
+    fn the_builder_shows_every_field_of_the_staircase_design_from_this_folder() {
+        use eframe::egui;
+        use egui_kittest::Harness;
+        use egui_kittest::kittest::Queryable;
+
+        use crate::gui::{FrictionlabApp, Launch};
+
+        let schema = serde_json::to_value(schemars::schema_for!(super::StaircaseDesign)).unwrap();
+        let fields: Vec<String> = schema["properties"]
+            .as_object()
+            .unwrap()
+            .keys()
+            .filter(|k| *k != "kind")
+            .cloned()
+            .collect();
+        assert!(fields.len() >= 5, "{fields:?}");
+        let mut h = Harness::builder()
+            .with_size(egui::vec2(1600.0, 2400.0))
+            .build_eframe(|_cc| FrictionlabApp::new(Launch::default()));
+        for label in ["Build a protocol", "toy_staircase"] {
+            h.get_by_label(label).click();
+            h.step();
+            h.step();
+        }
+        h.get_by_label("ok: toy_staircase 'new-toy-staircase', trials set by the answers");
+        for key in &fields {
+            let with_unit = crate::protocol::form::unit(key).map(|u| format!("{key} ({u})"));
+            let shown = h.query_by_label(key).is_some()
+                || with_unit.is_some_and(|l| h.query_by_label(&l).is_some());
+            assert!(shown, "the builder does not show '{key}'");
+        }
+    }
 }
