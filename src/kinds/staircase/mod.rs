@@ -47,6 +47,10 @@ pub struct StaircaseDesign {
     pub reversals: u32,
     /// Longest exploration of each stimulus, s.
     pub exploration_s: f64,
+    /// Ends the session after this many trials even before `reversals`
+    /// reversals (a cap on its length); none when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_trials: Option<u32>,
 }
 
 /// One staircase trial: the pair, and the difference it presents.
@@ -102,6 +106,7 @@ impl StudyKind for Staircase {
             "step",
             "reversals",
             "exploration_s",
+            "max_trials",
         ];
         let m = w.object(v, path, &keys)?;
         let reference = w.model_field(m, "reference", path);
@@ -109,12 +114,14 @@ impl StudyKind for Staircase {
         let step = w.required(m, "step", path);
         let reversals = w.required(m, "reversals", path);
         let exploration_s = w.required(m, "exploration_s", path);
+        let max_trials = w.optional(m, "max_trials", path, None);
         Some(StaircaseDesign {
             reference: reference?,
             start_delta: start_delta?,
             step: step?,
             reversals: reversals?,
             exploration_s: exploration_s?,
+            max_trials: max_trials?,
         })
     }
 
@@ -137,6 +144,9 @@ impl StudyKind for Staircase {
         c.positive("start_delta", d.start_delta);
         c.positive("step", d.step);
         c.positive("exploration_s", d.exploration_s);
+        if d.max_trials == Some(0) {
+            c.err("max_trials", "must be at least 1");
+        }
         if d.reversals == 0 {
             c.err("reversals", "must be at least 1");
         }
@@ -237,7 +247,7 @@ impl<K: Holds<Staircase>> TrialSource<K> for Source {
         let d = &self.design;
         let (delta, reversals) = self.track(history);
         let base = coefficients(&d.reference)?;
-        if reversals >= d.reversals {
+        if reversals >= d.reversals || d.max_trials.is_some_and(|m| index >= m as usize) {
             return None;
         }
         let with = |id: &str, mu_s: f64| Condition {
@@ -529,5 +539,20 @@ mod tests {
                 || with_unit.is_some_and(|l| h.query_by_label(&l).is_some());
             assert!(shown, "the builder does not show '{key}'");
         }
+    }
+
+    #[test]
+    fn max_trials_ends_the_staircase_before_its_reversals() {
+        use crate::kinds::Registry;
+        use crate::protocol::kind::Kinds;
+        let mut v = crate::protocol::form::new_protocol::<Registry>("toy_staircase").unwrap();
+        v["design"]["max_trials"] = 2.into();
+        let protocol = crate::protocol::load::parse::<Registry>(&v.to_string()).unwrap();
+        let source = Registry::source(&protocol, 1, 0);
+        assert!(source.trial(1, &[]).is_some());
+        assert!(source.trial(2, &[]).is_none());
+        v["design"]["max_trials"] = 0.into();
+        let problems = crate::protocol::load::parse::<Registry>(&v.to_string()).unwrap_err();
+        assert_eq!(problems[0].place, "design.max_trials", "{problems:?}");
     }
 }
