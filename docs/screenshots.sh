@@ -3,7 +3,11 @@
 # the participant's screens, under a virtual X display (Xvfb), driving the
 # windows with xdotool. Run from the repository root:
 #
-#   bash docs/screenshots.sh
+#   bash docs/screenshots.sh            # every picture
+#   bash docs/screenshots.sh builder    # the setup and builder pictures only
+#
+# FRICTIONLAB_BIN names a frictionlab binary to use instead of building
+# the release one.
 #
 # Needs: xvfb, imagemagick, xdotool (installed here with apt-get if missing).
 # Windows open at fixed places on a 1920x1080 screen (no window manager):
@@ -14,8 +18,13 @@ cd "$(dirname "$0")/.."
 if ! command -v Xvfb >/dev/null || ! command -v xdotool >/dev/null || ! command -v import >/dev/null; then
     apt-get update -qq && apt-get install -y -qq xvfb imagemagick xdotool >/dev/null
 fi
-cargo build --release --quiet
-bin=target/release/frictionlab
+only="${1:-all}"
+if [ -n "${FRICTIONLAB_BIN:-}" ]; then
+    bin=$FRICTIONLAB_BIN
+else
+    cargo build --release --quiet
+    bin=target/release/frictionlab
+fi
 out=docs/screenshots
 work=$(mktemp -d)
 export DISPLAY=:97
@@ -47,6 +56,23 @@ stroke() { # the mouse drives the simulated hand back and forth
 "$bin" gui --participant p01 --out "$work/results" >>"$work/gui.log" 2>&1 &
 sleep 3
 experimenter experimenter-setup
+
+# The protocol builder: a shipped protocol as forms; then a new paired
+# comparison with an invalid exploration time (the check's message under
+# the field, Save refused), fixed, and its first condition felt on the
+# simulated device with the pointer stroking the strip.
+click 290 52 1
+experimenter experimenter-builder
+click 463 85 1
+click 185 475 0.3
+xdotool windowfocus --sync "$(xdotool search --name "frictionlab: experimenter" | head -1)"
+xdotool key ctrl+a; xdotool type --delay 60 -- "-3"; sleep 0.8
+experimenter experimenter-builder-invalid
+xdotool key ctrl+a; xdotool type --delay 60 -- "10"; sleep 0.5
+click 330 167 1
+for x in 300 700 400 650; do xdotool mousemove "$x" 225; sleep 0.3; done
+experimenter experimenter-builder-feel
+if [ "$only" = builder ]; then exit 0; fi
 
 # Magnitude estimation: instructions, exploring, a refused entry.
 session magnitude-quick.json

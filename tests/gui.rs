@@ -781,8 +781,8 @@ fn a_still_hand_writes_a_stream_the_size_of_a_moving_one_issue_37() {
     assert!(len <= 25, "{len} characters: {field}");
 }
 
-/// Xvfb on a display of its own, or `None` (with a notice) where Xvfb or
-/// xdotool is missing; under CI they must be there (.ci/run installs them).
+/// Xvfb on a display of its own, or `None` (with a notice) where Xvfb,
+/// xdotool or zenity (the desktop's file chooser here) is missing; under CI they must be there (.ci/run installs them).
 fn xvfb() -> Option<(std::process::Child, String)> {
     let have = |tool: &str| {
         Process::new("sh")
@@ -790,13 +790,13 @@ fn xvfb() -> Option<(std::process::Child, String)> {
             .output()
             .is_ok_and(|o| o.status.success())
     };
-    let found = have("Xvfb") && have("xdotool");
+    let found = have("Xvfb") && have("xdotool") && have("zenity");
     assert!(
         found || std::env::var_os("CI").is_none(),
-        "Xvfb and xdotool are not installed: .ci/run installs them"
+        "Xvfb, xdotool and zenity are not installed: .ci/run installs them"
     );
     if !found {
-        eprintln!("skipped: Xvfb or xdotool is not installed (.ci/run installs them)");
+        eprintln!("skipped: Xvfb, xdotool or zenity is not installed (.ci/run installs them)");
         return None;
     }
     // -displayfd: Xvfb picks a free display and writes its number.
@@ -813,6 +813,15 @@ fn xvfb() -> Option<(std::process::Child, String)> {
     )
     .unwrap();
     Some((child, format!(":{}", line.trim())))
+}
+
+/// `xdotool args` on X display `display`.
+fn xdotool(display: &str, args: &[&str]) -> std::process::Output {
+    Process::new("xdotool")
+        .args(args)
+        .env("DISPLAY", display)
+        .output()
+        .unwrap()
 }
 
 /// Waits up to `s` seconds for `ok`.
@@ -835,13 +844,7 @@ fn gui_start_opens_straight_into_a_session_whose_trial_is_logged_issue_37() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("results");
     let root = env!("CARGO_MANIFEST_DIR");
-    let xdotool = |args: &[&str]| {
-        Process::new("xdotool")
-            .args(args)
-            .env("DISPLAY", &display)
-            .output()
-            .unwrap()
-    };
+    let xdotool = |args: &[&str]| xdotool(&display, args);
     let mut gui = Process::new(env!("CARGO_BIN_EXE_frictionlab"))
         .args(["gui", "--start", "--protocol"])
         .arg(format!("{root}/protocols/magnitude-quick.json"))
@@ -1216,4 +1219,86 @@ fn feeling_a_condition_moves_the_hand_under_the_pointer_issue_37() {
     assert!(moved > 2.0, "{text}");
     click(&mut h, "Stop feeling");
     assert!(h.query_by_label_contains(" · position ").is_none());
+}
+
+#[test]
+fn the_desktops_file_chooser_opens_a_protocol_in_the_builder_issue_37() {
+    let Some((mut x, display)) = xvfb() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    // A protocol written by hand on one line.
+    let file = dir.path().join("by-hand.json");
+    let shipped = std::fs::read_to_string(format!(
+        "{}/protocols/fitts-quick.json",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap();
+    let value: serde_json::Value = serde_json::from_str(&shipped).unwrap();
+    std::fs::write(&file, value.to_string()).unwrap();
+    let xdotool = |args: &[&str]| xdotool(&display, args);
+    let window = |how: &[&str]| {
+        let o = xdotool(&[&["search"], how].concat());
+        String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .last()
+            .map(str::to_owned)
+    };
+    let mut gui = Process::new(env!("CARGO_BIN_EXE_frictionlab"))
+        .args(["gui", "--participant", "p53", "--out"])
+        .arg(dir.path().join("results"))
+        .current_dir(dir.path())
+        .env("DISPLAY", &display)
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("DBUS_SESSION_BUS_ADDRESS")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let finish = |gui: &mut std::process::Child, x: &mut std::process::Child| {
+        let _ = gui.kill();
+        let _ = gui.wait();
+        let _ = x.kill();
+        let _ = x.wait();
+    };
+    let up = wait_for(30.0, || {
+        window(&["--name", "frictionlab: experimenter"]).is_some()
+    });
+    // The experimenter's window sits at (0, 0) (no window manager): the
+    // builder's tab, then its Browse button (as docs/screenshots.sh).
+    // A click before the window's first frames is lost: the tab is
+    // clicked until the builder's own controls are up (clicking it again
+    // changes nothing).
+    for _ in 0..3 {
+        std::thread::sleep(std::time::Duration::from_secs(2));
+        xdotool(&["mousemove", "290", "52", "click", "1"]);
+    }
+    std::thread::sleep(std::time::Duration::from_secs(1));
+    xdotool(&["mousemove", "567", "108", "click", "1"]);
+    let chooser = wait_for(20.0, || window(&["--class", "zenity"]).is_some());
+    if !(up && chooser) {
+        finish(&mut gui, &mut x);
+        panic!("window up: {up}, chooser up: {chooser}");
+    }
+    std::thread::sleep(std::time::Duration::from_secs(1));
+    let z = window(&["--class", "zenity"]).unwrap();
+    xdotool(&["windowfocus", "--sync", &z]);
+    xdotool(&["type", "--delay", "30", file.to_str().unwrap()]);
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    xdotool(&["key", "Return"]);
+    std::thread::sleep(std::time::Duration::from_secs(2));
+    // Opened from the chooser, it may be saved over: Save rewrites it in
+    // the builder's stable order.
+    xdotool(&["mousemove", "632", "108", "click", "1"]);
+    let form = frictionlab::protocol::form::Form::of::<Registry>();
+    let expected = form.text(&value);
+    let saved = wait_for(10.0, || {
+        std::fs::read_to_string(&file).is_ok_and(|t| t == expected)
+    });
+    finish(&mut gui, &mut x);
+    assert!(
+        saved,
+        "the file chosen was not opened and saved: {}",
+        std::fs::read_to_string(&file).unwrap()
+    );
 }

@@ -23,6 +23,7 @@ use std::path::PathBuf;
 use eframe::egui::{self, Color32, Rect, RichText, Sense, Stroke, pos2, vec2};
 use serde_json::Value;
 
+use super::choose::{Choose, choose};
 use super::{Command, ERROR_RED, participant};
 use crate::kinds::Registry;
 use crate::problem::Problem;
@@ -200,12 +201,35 @@ impl BuilderPanel {
             if ui.button("Open").clicked() {
                 self.open_file();
             }
+            if ui.button("Browse…").clicked() {
+                match choose(Choose::Protocol, &self.file) {
+                    Ok(path) => {
+                        self.file = path.display().to_string();
+                        self.open_file();
+                    }
+                    Err(m) => self.message = Some((false, m)),
+                }
+            }
             if ui
                 .add_enabled(self.problems.is_empty(), egui::Button::new("Save"))
                 .on_disabled_hover_text("fix the problems first")
                 .clicked()
             {
                 self.save();
+            }
+            if ui
+                .add_enabled(self.problems.is_empty(), egui::Button::new("Save as…"))
+                .clicked()
+            {
+                match choose(Choose::SaveProtocol, &self.file) {
+                    Ok(path) => {
+                        // The desktop's chooser asked before replacing.
+                        self.owned = Some(path.clone());
+                        self.file = path.display().to_string();
+                        self.save();
+                    }
+                    Err(m) => self.message = Some((false, m)),
+                }
             }
             if let Some(path) = &self.owned
                 && self.problems.is_empty()
@@ -423,7 +447,7 @@ impl Editor<'_> {
                 }
             } else {
                 ui.horizontal(|ui| {
-                    ui.label(RichText::new(key).weak());
+                    ui.label(RichText::new(label_text(key)).weak());
                     let default = child
                         .get("default")
                         .map_or_else(|| "not set".to_owned(), |d| format!("default {d}"));
@@ -474,10 +498,7 @@ impl Editor<'_> {
             .and_then(Value::as_str)
             .unwrap_or("")
             .to_owned();
-        let text = match form::unit(key) {
-            Some(unit) => format!("{key} ({unit})"),
-            None => key.to_owned(),
-        };
+        let text = label_text(key);
         let mut remove = false;
         let picked = self.form.pick(node, value).clone();
         let composite = value.is_object() || value.is_array();
@@ -683,6 +704,14 @@ impl Editor<'_> {
                 }
             }
         }
+    }
+}
+
+/// A field's label: its key, and its unit where the key has one.
+fn label_text(key: &str) -> String {
+    match form::unit(key) {
+        Some(unit) => format!("{key} ({unit})"),
+        None => key.to_owned(),
     }
 }
 

@@ -22,6 +22,7 @@
 //! keeps the frame-time statistics.
 
 mod builder;
+mod choose;
 mod frames;
 mod participant;
 mod plot;

@@ -76,6 +76,8 @@ pub(super) struct SetupPanel {
     lsl: bool,
     /// liblsl loaded by `--lsl`, or the file `--lsl-lib` named.
     lsl_lib: (Option<std::sync::Arc<crate::lsl::Lsl>>, Option<PathBuf>),
+    /// Why the desktop's chooser gave no path, if it did not.
+    chooser: Option<String>,
 }
 
 impl SetupPanel {
@@ -94,6 +96,7 @@ impl SetupPanel {
             participant_index: None,
             lsl: launch.lsl.is_some(),
             lsl_lib: (launch.lsl, launch.lsl_lib),
+            chooser: None,
         };
         match launch.protocol {
             Some(path) => {
@@ -357,6 +360,15 @@ impl SetupPanel {
                     if ui.button("Load file").clicked() {
                         commands.push(Command::LoadFile);
                     }
+                    if ui.button("Browse…").clicked() {
+                        match super::choose::choose(super::choose::Choose::Protocol, &self.file) {
+                            Ok(path) => {
+                                self.file = path.display().to_string();
+                                commands.push(Command::LoadFile);
+                            }
+                            Err(m) => self.chooser = Some(m),
+                        }
+                    }
                 });
                 ui.end_row();
                 ui.label("");
@@ -375,9 +387,22 @@ impl SetupPanel {
                 });
                 ui.end_row();
                 let label = ui.label("Output folder");
-                ui.add(egui::TextEdit::singleline(&mut self.out).desired_width(420.0))
-                    .labelled_by(label.id);
+                ui.horizontal(|ui| {
+                    ui.add(egui::TextEdit::singleline(&mut self.out).desired_width(420.0))
+                        .labelled_by(label.id);
+                    if ui.button("Choose folder…").clicked() {
+                        match super::choose::choose(super::choose::Choose::Folder, &self.out) {
+                            Ok(path) => self.out = path.display().to_string(),
+                            Err(m) => self.chooser = Some(m),
+                        }
+                    }
+                });
                 ui.end_row();
+                if let Some(m) = &self.chooser {
+                    ui.label("");
+                    ui.label(RichText::new(m).weak());
+                    ui.end_row();
+                }
                 let label = ui.label("Plan seed");
                 ui.horizontal(|ui| {
                     ui.add(egui::TextEdit::singleline(&mut self.seed).desired_width(200.0))

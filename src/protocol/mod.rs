@@ -95,6 +95,7 @@ impl<K: Kinds> Protocol<K> {
     #[must_use]
     pub fn trials_per_session(&self) -> String {
         match K::source(self, 0, 0).planned() {
+            Some(1) => "1 trial per session".to_owned(),
             Some(n) => format!("{n} trials per session"),
             None => "trials set by the answers".to_owned(),
         }
