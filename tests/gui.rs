@@ -782,8 +782,20 @@ fn a_still_hand_writes_a_stream_the_size_of_a_moving_one_issue_37() {
 }
 
 /// Xvfb on a display of its own, or `None` (with a notice) where Xvfb,
-/// xdotool or zenity (the desktop's file chooser here) is missing; under CI they must be there (.ci/run installs them).
-fn xvfb() -> Option<(std::process::Child, String)> {
+/// xdotool or zenity (the desktop's file chooser here) is missing; under
+/// CI they must be there (.ci/run installs them). The guard keeps the
+/// tests with a real window one at a time.
+fn xvfb() -> Option<(
+    std::process::Child,
+    String,
+    std::sync::MutexGuard<'static, ()>,
+)> {
+    // One real window at a time: two, with their builds and sessions,
+    // starve each other's first frames on a 2-core machine.
+    static ONE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let held = ONE
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
     let have = |tool: &str| {
         Process::new("sh")
             .args(["-c", &format!("command -v {tool}")])
@@ -812,7 +824,7 @@ fn xvfb() -> Option<(std::process::Child, String)> {
         &mut line,
     )
     .unwrap();
-    Some((child, format!(":{}", line.trim())))
+    Some((child, format!(":{}", line.trim()), held))
 }
 
 /// `xdotool args` on X display `display`.
@@ -838,7 +850,7 @@ fn wait_for(s: f64, mut ok: impl FnMut() -> bool) -> bool {
 
 #[test]
 fn gui_start_opens_straight_into_a_session_whose_trial_is_logged_issue_37() {
-    let Some((mut x, display)) = xvfb() else {
+    let Some((mut x, display, _one)) = xvfb() else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
@@ -1223,7 +1235,7 @@ fn feeling_a_condition_moves_the_hand_under_the_pointer_issue_37() {
 
 #[test]
 fn the_desktops_file_chooser_opens_a_protocol_in_the_builder_issue_37() {
-    let Some((mut x, display)) = xvfb() else {
+    let Some((mut x, display, _one)) = xvfb() else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
@@ -1266,16 +1278,22 @@ fn the_desktops_file_chooser_opens_a_protocol_in_the_builder_issue_37() {
     });
     // The experimenter's window sits at (0, 0) (no window manager): the
     // builder's tab, then its Browse button (as docs/screenshots.sh).
-    // A click before the window's first frames is lost: the tab is
-    // clicked until the builder's own controls are up (clicking it again
-    // changes nothing).
-    for _ in 0..3 {
-        std::thread::sleep(std::time::Duration::from_secs(2));
+    // A click before the window's first frames is lost, so the builder's
+    // tab and its Browse button are clicked until the chooser is up
+    // (clicking them again changes nothing).
+    let mut chooser = false;
+    for _ in 0..10 {
+        if !up {
+            break;
+        }
         xdotool(&["mousemove", "290", "52", "click", "1"]);
+        std::thread::sleep(std::time::Duration::from_secs(1));
+        xdotool(&["mousemove", "567", "108", "click", "1"]);
+        chooser = wait_for(5.0, || window(&["--class", "zenity"]).is_some());
+        if chooser {
+            break;
+        }
     }
-    std::thread::sleep(std::time::Duration::from_secs(1));
-    xdotool(&["mousemove", "567", "108", "click", "1"]);
-    let chooser = wait_for(20.0, || window(&["--class", "zenity"]).is_some());
     if !(up && chooser) {
         finish(&mut gui, &mut x);
         panic!("window up: {up}, chooser up: {chooser}");
@@ -1286,15 +1304,17 @@ fn the_desktops_file_chooser_opens_a_protocol_in_the_builder_issue_37() {
     xdotool(&["type", "--delay", "30", file.to_str().unwrap()]);
     std::thread::sleep(std::time::Duration::from_millis(500));
     xdotool(&["key", "Return"]);
-    std::thread::sleep(std::time::Duration::from_secs(2));
-    // Opened from the chooser, it may be saved over: Save rewrites it in
-    // the builder's stable order.
-    xdotool(&["mousemove", "632", "108", "click", "1"]);
+    let closed = wait_for(10.0, || window(&["--class", "zenity"]).is_none());
     let form = frictionlab::protocol::form::Form::of::<Registry>();
     let expected = form.text(&value);
-    let saved = wait_for(10.0, || {
-        std::fs::read_to_string(&file).is_ok_and(|t| t == expected)
-    });
+    // Opened from the chooser, it may be saved over: Save (clicked until
+    // it lands) rewrites it in the builder's stable order.
+    let saved = closed
+        && wait_for(20.0, || {
+            xdotool(&["mousemove", "632", "108", "click", "1"]);
+            std::thread::sleep(std::time::Duration::from_millis(500));
+            std::fs::read_to_string(&file).is_ok_and(|t| t == expected)
+        });
     finish(&mut gui, &mut x);
     assert!(
         saved,
