@@ -1,7 +1,8 @@
 //! Whole sessions on the emulated device over a pseudo-terminal: a quick
 //! session end to end, an emulator killed mid-trial and restarted, a
 //! device that never comes back (exit 3, completed trials intact), one that
-//! never answers (exit 3, nothing written), and paths that are no port.
+//! never answers (exit 3, nothing written), paths that are no port, and a
+//! model felt from the builder on the emulated device.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -754,4 +755,44 @@ fn resends_over_a_lagging_link_restart_nothing_and_rerender_bit_exact() {
         selects >= 6,
         "{selects} selects: at least a model per trial"
     );
+}
+
+/// The builder's "Feel a condition" on a connected device (issue 37): the
+/// emulator renders the model, the mouse's hand drive reaches it, and the
+/// ticks come back; a viscous model resists where no model does not.
+#[test]
+fn feeling_a_condition_on_the_emulated_device_renders_it_under_the_hand() {
+    use frictionlab::friction::ModelParams;
+    use frictionlab::session::{DeviceChoice, Feel};
+
+    let mut peaks = Vec::new();
+    for name in ["none", "viscous"] {
+        let dir = tempfile::tempdir().unwrap();
+        let dev = dir.path().join("dev");
+        let emu = common::emulator(&dev);
+        let model = ModelParams::default_for(name).unwrap();
+        let mut feel = Feel::start(&DeviceChoice::Port(dev.clone()), &model, 0.0).unwrap();
+        let start = Instant::now();
+        let (mut connected, mut reached, mut peak) = (false, false, 0.0_f64);
+        // The pointer sweeps 0 to 8 mm and back, twice a second.
+        while start.elapsed() < Duration::from_secs(6) {
+            let t = start.elapsed().as_secs_f64();
+            let target = 0.004 * (1.0 - (std::f64::consts::TAU * t).cos());
+            feel.advance(t, Some(target));
+            connected |= feel.connected();
+            let s = *feel.sample();
+            reached |= s.x_m > 0.004;
+            if connected {
+                peak = peak.max(s.force_n.abs());
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        drop(feel);
+        unplug(emu, &dev);
+        assert!(connected, "{name}: the device never answered");
+        assert!(reached, "{name}: the hand never followed the pointer");
+        peaks.push(peak);
+    }
+    assert!(peaks[0] < 0.05, "no model, yet {} N", peaks[0]);
+    assert!(peaks[1] > 0.2, "the damper rendered {} N at most", peaks[1]);
 }
