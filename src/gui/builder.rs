@@ -388,10 +388,10 @@ fn strip(ui: &mut egui::Ui, feel: &mut Feel, now: f64) {
         } else {
             " · NOT CONNECTED"
         },
-        s.x_m * 1e3,
-        s.v_m_s * 1e3,
-        s.force_n,
-        s.vibration
+        shown(s.x_m * 1e3, 1e-2),
+        shown(s.v_m_s * 1e3, 1e-1),
+        shown(s.force_n, 1e-3),
+        shown(s.vibration, 1e-2)
     ));
 }
 
@@ -443,6 +443,8 @@ impl Editor<'_> {
                 );
                 if remove {
                     map.remove(key);
+                    // Set again later, it shows its new value, not the old text.
+                    self.typed.retain(|p, _| !p.starts_with(&child_path));
                     self.changed = true;
                 }
             } else {
@@ -707,6 +709,12 @@ impl Editor<'_> {
     }
 }
 
+/// `x` as printed to `step` (its last digit): a value that rounds to zero
+/// prints as 0, not -0.
+fn shown(x: f64, step: f64) -> f64 {
+    if x.abs() < step / 2.0 { 0.0 } else { x }
+}
+
 /// A field's label: its key, and its unit where the key has one.
 fn label_text(key: &str) -> String {
     match form::unit(key) {
@@ -726,4 +734,14 @@ fn number(text: &str, integer: bool) -> Option<Value> {
     }
     let x: f64 = text.parse().ok()?;
     serde_json::Number::from_f64(x).map(Value::Number)
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_readout_that_rounds_to_zero_prints_0_not_minus_0() {
+        assert_eq!(format!("{:.3}", super::shown(-0.0004, 1e-3)), "0.000");
+        assert_eq!(format!("{:.3}", super::shown(-0.0006, 1e-3)), "-0.001");
+        assert_eq!(format!("{:.3}", super::shown(-1.777, 1e-3)), "-1.777");
+    }
 }
