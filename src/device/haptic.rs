@@ -109,6 +109,19 @@ pub struct Tick {
     pub mode: Mode,
 }
 
+impl Tick {
+    /// What the device reported at this tick.
+    #[must_use]
+    pub fn sample(&self) -> super::DeviceSample {
+        super::DeviceSample {
+            x_m: self.x_m,
+            v_m_s: self.v_m_s,
+            force_n: self.force_n,
+            vibration: self.vibration,
+        }
+    }
+}
+
 /// Who renders a tick's model.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Mode {

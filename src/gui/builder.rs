@@ -340,8 +340,7 @@ impl BuilderPanel {
             drawn: HashSet::new(),
             changed: false,
         };
-        let root = self.form.root().clone();
-        editor.object(ui, &root, &mut value, "$");
+        editor.object(ui, self.form.root(), &mut value, "$");
         let (changed, drawn) = (editor.changed, editor.drawn);
         self.value = value;
         self.drawn = drawn;
@@ -404,7 +403,7 @@ struct Editor<'a> {
     changed: bool,
 }
 
-impl Editor<'_> {
+impl<'a> Editor<'a> {
     /// The problems at `path`, under its field.
     fn problems(&mut self, ui: &mut egui::Ui, path: &str) {
         self.drawn.insert(path.to_owned());
@@ -415,15 +414,15 @@ impl Editor<'_> {
 
     /// An object's fields, in form order; optional fields left out offer
     /// to be set, and set ones to be removed.
-    fn object(&mut self, ui: &mut egui::Ui, node: &Value, value: &mut Value, path: &str) {
-        let node = self.form.pick(node, value).clone();
-        let tag = self.form.tag(&node).map(|(k, _)| k.to_owned());
+    fn object(&mut self, ui: &mut egui::Ui, node: &'a Value, value: &mut Value, path: &str) {
+        let node = self.form.pick(node, value);
+        let tag = self.form.tag(node).map(|(k, _)| k.to_owned());
         let Value::Object(map) = value else {
             return;
         };
         // Plain fields first, then the nested ones (the design, lists),
         // each in form order.
-        let mut fields = self.form.fields(&node);
+        let mut fields = self.form.fields(node);
         fields.sort_by_key(|(key, _, _)| {
             map.get(*key).is_some_and(|v| v.is_object() || v.is_array())
         });
@@ -465,7 +464,7 @@ impl Editor<'_> {
         // Keys the schema does not know: `validate` names them.
         let unknown: Vec<String> = map
             .keys()
-            .filter(|k| !self.form.fields(&node).iter().any(|(f, _, _)| f == k))
+            .filter(|k| !self.form.fields(node).iter().any(|(f, _, _)| f == k))
             .cloned()
             .collect();
         for key in unknown {
@@ -488,7 +487,7 @@ impl Editor<'_> {
         &mut self,
         ui: &mut egui::Ui,
         key: &str,
-        node: &Value,
+        node: &'a Value,
         value: &mut Value,
         path: &str,
         removable: Option<&str>,
@@ -502,7 +501,7 @@ impl Editor<'_> {
             .to_owned();
         let text = label_text(key);
         let mut remove = false;
-        let picked = self.form.pick(node, value).clone();
+        let picked = self.form.pick(node, value);
         let composite = value.is_object() || value.is_array();
         if composite {
             let id = ui.make_persistent_id(path);
@@ -523,13 +522,13 @@ impl Editor<'_> {
                     if value.is_object() {
                         self.object(ui, node, value, path);
                     } else {
-                        self.array(ui, &picked, value, path);
+                        self.array(ui, picked, value, path);
                     }
                 });
         } else {
             ui.horizontal(|ui| {
                 let label = ui.label(&text).on_hover_text(&doc);
-                self.scalar(ui, node, &picked, value, path, label.id);
+                self.scalar(ui, node, picked, value, path, label.id);
                 if let Some(button) = removable
                     && ui.small_button(button).clicked()
                 {
@@ -576,8 +575,9 @@ impl Editor<'_> {
     }
 
     /// A list: each element, with remove, and an add that copies the last.
-    fn array(&mut self, ui: &mut egui::Ui, node: &Value, value: &mut Value, path: &str) {
-        let items = node.get("items").cloned().unwrap_or(Value::Null);
+    fn array(&mut self, ui: &mut egui::Ui, node: &'a Value, value: &mut Value, path: &str) {
+        const NONE: &Value = &Value::Null;
+        let items = node.get("items").unwrap_or(NONE);
         let Value::Array(list) = value else {
             return;
         };
@@ -589,7 +589,7 @@ impl Editor<'_> {
                     if self.field(
                         ui,
                         &format!("[{i}]"),
-                        &items,
+                        items,
                         item,
                         &item_path,
                         Some("remove"),
@@ -599,8 +599,8 @@ impl Editor<'_> {
                 } else {
                     ui.horizontal(|ui| {
                         let label = ui.label(format!("[{i}]"));
-                        let picked = self.form.pick(&items, item).clone();
-                        self.scalar(ui, &items, &picked, item, &item_path, label.id);
+                        let picked = self.form.pick(items, item);
+                        self.scalar(ui, items, picked, item, &item_path, label.id);
                         if ui.small_button("remove").clicked() {
                             remove = Some(i);
                         }
@@ -618,7 +618,7 @@ impl Editor<'_> {
             let new = list
                 .last()
                 .cloned()
-                .unwrap_or_else(|| self.form.new_value(&items));
+                .unwrap_or_else(|| self.form.new_value(items));
             list.push(new);
             self.changed = true;
         }

@@ -156,20 +156,6 @@ impl Form {
         }
     }
 
-    /// Whether a property node may hold null (an optional value).
-    #[must_use]
-    pub fn nullable(&self, node: &Value) -> bool {
-        let type_null = node
-            .get("type")
-            .and_then(Value::as_array)
-            .is_some_and(|l| l.iter().any(|t| t == "null"));
-        type_null
-            || self.alternatives(node).is_some_and(|a| {
-                a.iter()
-                    .any(|n| n.get("type").and_then(Value::as_str) == Some("null"))
-            })
-    }
-
     /// An object node's properties in form order: the required ones as
     /// the type declares them, then the others (alphabetical).
     #[must_use]

@@ -99,12 +99,7 @@ impl Feel {
                         continue;
                     }
                     self.t = tick.now_s;
-                    self.sample = DeviceSample {
-                        x_m: tick.x_m,
-                        v_m_s: tick.v_m_s,
-                        force_n: tick.force_n,
-                        vibration: tick.vibration,
-                    };
+                    self.sample = tick.sample();
                     if let Some(drive) = self.person.drive(self.t, &self.sample) {
                         port.drive_hand(tick.now_s, &drive);
                     }

@@ -433,12 +433,7 @@ impl<R: Responder> Session<R> {
                 // device answers.
                 self.log.open()?;
             }
-            self.sample = DeviceSample {
-                x_m: tick.x_m,
-                v_m_s: tick.v_m_s,
-                force_n: tick.force_n,
-                vibration: tick.vibration,
-            };
+            self.sample = tick.sample();
             self.row_render = (tick.render, port.how(&tick));
             self.marks = RowMarks {
                 selected: tick.selected,
