@@ -1239,8 +1239,11 @@ fn the_desktops_file_chooser_opens_a_protocol_in_the_builder_issue_37() {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
-    // A protocol written by hand on one line.
-    let file = dir.path().join("by-hand.json");
+    // A protocol written by hand on one line, where the builder's file
+    // field points when it opens (a copy of the first shipped protocol,
+    // relative to the window's folder): the chooser opens on it.
+    let file = dir.path().join("protocols/my-magnitude-quick.json");
+    std::fs::create_dir_all(file.parent().unwrap()).unwrap();
     let shipped = std::fs::read_to_string(format!(
         "{}/protocols/fitts-quick.json",
         env!("CARGO_MANIFEST_DIR")
@@ -1305,8 +1308,6 @@ fn the_desktops_file_chooser_opens_a_protocol_in_the_builder_issue_37() {
     std::thread::sleep(std::time::Duration::from_secs(1));
     let z = zenity().unwrap();
     xdotool(&["windowfocus", "--sync", &z]);
-    xdotool(&["type", "--delay", "50", file.to_str().unwrap()]);
-    std::thread::sleep(std::time::Duration::from_secs(1));
     xdotool(&["key", "Return"]);
     let closed = wait_for(10.0, || zenity().is_none());
     let form = frictionlab::protocol::form::Form::of::<Registry>();

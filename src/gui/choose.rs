@@ -29,6 +29,16 @@ pub(super) fn choose(what: Choose, typed: &str) -> Result<PathBuf, String> {
     if let Some(dir) = dir {
         dialog = dialog.set_directory(dir);
     }
+    // An existing file or folder typed in is where the chooser opens, with
+    // it selected (zenity takes the path itself; the portal, the folder).
+    if matches!(what, Choose::Protocol | Choose::Folder) && typed.exists() {
+        let absolute = std::path::absolute(typed).unwrap_or_else(|_| typed.to_path_buf());
+        let mut name = absolute.display().to_string();
+        if absolute.is_dir() && !name.ends_with('/') {
+            name.push('/');
+        }
+        dialog = dialog.set_file_name(name);
+    }
     let protocols = |d: rfd::FileDialog| d.add_filter("protocol (JSON)", &["json"]);
     let chosen = match what {
         Choose::Protocol => protocols(dialog).set_title("Open a protocol").pick_file(),
