@@ -76,8 +76,10 @@ fn generate(dir: &Path) {
                     abort_reason: None,
                     requeued: false,
                     trial_seed: 1,
-                    started_s: trial as f64 * 4.0,
-                    ended_s: trial as f64 * 4.0 + 3.2,
+                    started_s: frictionlab::time::Time::from_whole_secs(trial as u64 * 4),
+                    ended_s: frictionlab::time::Time::from_secs_saturating(
+                        trial as f64 * 4.0 + 3.2,
+                    ),
                     data: TrialData::MagnitudeEstimation(MagnitudeData {
                         display: display.into(),
                         mu_s: Some(mu_s),

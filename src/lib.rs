@@ -30,4 +30,5 @@ pub mod results;
 pub mod scenario;
 pub mod session;
 pub mod settings;
+pub mod time;
 pub mod validation;

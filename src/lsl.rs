@@ -9,6 +9,15 @@
 //! and counted when the worker lags. So pushing, and whatever liblsl does
 //! with no consumer or a slow one, never holds up the session.
 //!
+//! # Streams first (issue 42)
+//! Both outlets exist before anything is pushed: [`Publisher::start`]
+//! makes the marker stream, [`Publisher::device`] the device stream, and
+//! [`Publisher::open`] then waits (at most `--lsl-wait`) for a reader on
+//! each before the worker starts pushing. So a recorder started before
+//! the session sees both streams while the session waits for it, and
+//! records both from the session's first marker; what is queued before
+//! `open` waits for it.
+//!
 //! [`Publisher::finish`] pushes what is queued, lets a connected inlet
 //! drain the last samples, and returns [`LslStats`]: counts and latencies
 //! (event to session, event to push) for the session log.
@@ -18,6 +27,8 @@ use std::path::Path;
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
 use std::thread::JoinHandle;
 use std::time::Duration;
+
+use crate::time::Time;
 
 pub use frictionlab_lsl::{Content, Format, LoadError, Lsl, Node, OutletError, StreamSpec};
 
@@ -40,9 +51,9 @@ pub fn load(explicit: Option<&Path>) -> Result<Arc<Lsl>, LoadError> {
 pub struct Streaming {
     /// liblsl.
     pub lib: Arc<Lsl>,
-    /// Hold the session's start until an inlet listens to its markers, at
-    /// most this long, s (0: start at once; markers sent before a recorder
-    /// connects are not recorded).
+    /// Hold the session's start, with both streams published, until an
+    /// inlet listens to each, at most this long in all, s (0: start at
+    /// once; what is pushed before a recorder connects is not recorded).
     pub wait_s: f64,
 }
 
@@ -52,8 +63,8 @@ pub struct Streaming {
 /// reads on Linux, mapped once.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Clock {
-    /// A session time, s.
-    pub t0: f64,
+    /// A session time.
+    pub t0: Time,
     /// The LSL time it maps to, s.
     pub lsl0: f64,
     /// Session seconds per LSL second.
@@ -61,10 +72,15 @@ pub struct Clock {
 }
 
 impl Clock {
-    /// The LSL time of session time `t`.
+    /// The LSL time of session time `t` (before or after `t0`).
     #[must_use]
-    pub fn at(&self, t: f64) -> f64 {
-        self.lsl0 + (t - self.t0) / self.pace
+    pub fn at(&self, t: Time) -> f64 {
+        let since = if t >= self.t0 {
+            (t - self.t0).secs()
+        } else {
+            -(self.t0 - t).secs()
+        };
+        self.lsl0 + since / self.pace
     }
 }
 
@@ -299,6 +315,8 @@ struct Pushed {
 pub struct Publisher {
     lsl: Arc<Lsl>,
     shared: Arc<Shared>,
+    /// The marker outlet until [`Publisher::open`] hands it to the worker.
+    markers: Option<frictionlab_lsl::Outlet>,
     worker: Option<JoinHandle<Pushed>>,
     source_id: String,
     seq: u64,
@@ -316,19 +334,17 @@ impl std::fmt::Debug for Publisher {
 
 impl Publisher {
     /// Publishes the marker stream `name` (type `Markers`, one string
-    /// channel, irregular rate, `source_id`, `desc` its description) and
-    /// starts the worker. The device stream opens at [`Publisher::device`].
+    /// channel, irregular rate, `source_id`, `desc` its description). The
+    /// device stream is published by [`Publisher::device`]; nothing is
+    /// pushed until [`Publisher::open`] (markers and samples queue).
     ///
     /// # Errors
-    /// liblsl made no outlet, or the worker thread could not start.
-    /// With `wait_s` > 0, returns once an inlet listens to the markers, or
-    /// after `wait_s`.
+    /// liblsl made no outlet.
     pub fn start(
         lsl: &Arc<Lsl>,
         name: &str,
         source_id: &str,
         desc: &[Node],
-        wait_s: f64,
     ) -> Result<Self, OutletError> {
         let markers = lsl.outlet(
             &StreamSpec {
@@ -341,9 +357,6 @@ impl Publisher {
             },
             desc,
         )?;
-        if wait_s > 0.0 {
-            let _ = markers.wait_for_consumers(wait_s);
-        }
         let shared = Arc::new(Shared {
             queue: Mutex::new(Queue {
                 markers: VecDeque::new(),
@@ -355,22 +368,54 @@ impl Publisher {
             }),
             ready: Condvar::new(),
         });
-        let worker = {
-            let (lsl, shared) = (lsl.clone(), shared.clone());
-            std::thread::Builder::new()
-                .name("lsl-outlets".into())
-                .spawn(move || work(&lsl, &shared, &markers))
-                .map_err(|_| OutletError::Create("worker".into()))?
-        };
         Ok(Publisher {
             lsl: lsl.clone(),
             shared,
-            worker: Some(worker),
+            markers: Some(markers),
+            worker: None,
             source_id: source_id.to_owned(),
             seq: 0,
             device_open: false,
             device_failed: false,
         })
+    }
+
+    /// Waits, at most `wait_s` in all, for an inlet on the marker stream
+    /// and then on the device stream (if published), and starts pushing
+    /// (the worker): what was queued goes first. Whether each stream had a
+    /// reader. Once open, a second call does nothing.
+    ///
+    /// # Errors
+    /// The worker thread could not start.
+    pub fn open(&mut self, wait_s: f64) -> Result<(bool, bool), OutletError> {
+        let Some(markers) = self.markers.take() else {
+            return Ok((true, true));
+        };
+        let start = self.lsl.local_clock();
+        let left = |lsl: &Lsl| (wait_s - (lsl.local_clock() - start)).max(0.0);
+        let marker_reader = wait_s > 0.0 && markers.wait_for_consumers(wait_s);
+        let device_reader = {
+            let q = self.shared.lock();
+            q.device.as_ref().is_some_and(|(o, _)| {
+                left(&self.lsl) > 0.0 && o.wait_for_consumers(left(&self.lsl))
+            })
+        };
+        let worker = {
+            let (lsl, shared) = (self.lsl.clone(), self.shared.clone());
+            std::thread::Builder::new()
+                .name("lsl-outlets".into())
+                .spawn(move || work(&lsl, &shared, &markers))
+                .map_err(|_| OutletError::Create("worker".into()))?
+        };
+        self.worker = Some(worker);
+        self.shared.ready.notify_one();
+        Ok((marker_reader, device_reader))
+    }
+
+    /// Whether [`Publisher::open`] has started pushing.
+    #[must_use]
+    pub fn is_open(&self) -> bool {
+        self.markers.is_none()
     }
 
     /// LSL's clock now, s.
@@ -408,17 +453,12 @@ impl Publisher {
     /// Publishes the device stream (on this thread: creating an outlet
     /// takes liblsl some milliseconds, which the worker must not spend
     /// while markers wait), then hands it to the worker. Whether it could.
-    /// With `wait_s` > 0, first waits that long at most for an inlet
-    /// (a recorder that was waited for subscribes to both streams).
-    pub fn device(&mut self, stream: &DeviceStream, wait_s: f64) -> bool {
+    pub fn device(&mut self, stream: &DeviceStream) -> bool {
         self.device_open = true;
         let Some(outlet) = open_device(&self.lsl, stream) else {
             self.device_failed = true;
             return false;
         };
-        if wait_s > 0.0 {
-            let _ = outlet.0.wait_for_consumers(wait_s);
-        }
         let mut q = self.shared.lock();
         #[expect(
             clippy::cast_possible_truncation,
@@ -463,10 +503,12 @@ impl Publisher {
         }
     }
 
-    /// Pushes everything queued, gives a connected inlet [`LINGER_S`] to
-    /// take it, closes both streams and says what was published.
+    /// Pushes everything queued (opening without a wait if not yet
+    /// open), gives a connected inlet [`LINGER_S`] to take it, closes both
+    /// streams and says what was published.
     #[must_use]
     pub fn finish(mut self) -> LslStats {
+        let _ = self.open(0.0);
         self.shared.lock().closing = true;
         self.shared.ready.notify_one();
         let pushed = self.worker.take().and_then(|w| w.join().ok());
@@ -625,11 +667,12 @@ mod tests {
     #[test]
     fn a_clock_maps_session_time_at_its_pace() {
         let c = Clock {
-            t0: 10.0,
+            t0: Time::from_whole_secs(10),
             lsl0: 1000.0,
             pace: 2.0,
         };
-        assert_eq!(c.at(10.0), 1000.0);
-        assert_eq!(c.at(12.0), 1001.0);
+        assert_eq!(c.at(Time::from_whole_secs(10)), 1000.0);
+        assert_eq!(c.at(Time::from_whole_secs(12)), 1001.0);
+        assert_eq!(c.at(Time::from_whole_secs(8)), 999.0);
     }
 }

@@ -419,14 +419,13 @@ fn a_resumed_device_session_keeps_its_clock_going() {
     let mut last_end = 0.0_f64;
     let mut runs = std::collections::HashMap::new();
     for r in &read.trials {
+        let (started_s, ended_s) = (r.started_s.secs(), r.ended_s.secs());
         assert!(
-            r.started_s >= last_end && r.ended_s >= r.started_s,
-            "trial {} runs {}..{} s after a trial that ended at {last_end} s",
+            started_s >= last_end && ended_s >= started_s,
+            "trial {} runs {started_s}..{ended_s} s after a trial that ended at {last_end} s",
             r.trial,
-            r.started_s,
-            r.ended_s
         );
-        last_end = r.ended_s;
+        last_end = ended_s;
         let run_no = runs.entry(r.trial).and_modify(|n| *n += 1).or_insert(1);
         let stream = out.join(format!(
             "streams/study-magnitudequick_subject-dev_session-1_trial-{}_run-{run_no}_stream.csv",
@@ -443,8 +442,8 @@ fn a_resumed_device_session_keeps_its_clock_going() {
         assert!(!times.is_empty());
         assert!(
             times.windows(2).all(|w| w[1] >= w[0])
-                && times[0] >= r.started_s - 0.01
-                && times[times.len() - 1] <= r.ended_s + 0.01,
+                && times[0] >= started_s - 0.01
+                && times[times.len() - 1] <= ended_s + 0.01,
             "trial {}: stream {}..{} s outside the trial's {}..{} s",
             r.trial,
             times[0],
@@ -466,7 +465,7 @@ impl frictionlab::session::Responder for Waiting {
     }
     fn on_action(
         &mut self,
-        _: f64,
+        _: frictionlab::time::Time,
         action: &frictionlab::kinds::Action,
         _: Option<&frictionlab::kinds::PlannedTrial>,
     ) -> frictionlab::session::Reaction {
@@ -482,19 +481,24 @@ impl frictionlab::session::Responder for Waiting {
     }
     fn decide(
         &mut self,
-        _: f64,
+        _: frictionlab::time::Time,
         _: &frictionlab::device::DeviceSample,
     ) -> frictionlab::session::Reaction {
         frictionlab::session::Reaction::default()
     }
     fn drive(
         &self,
-        _: f64,
+        _: frictionlab::time::Time,
         _: &frictionlab::device::DeviceSample,
     ) -> Option<frictionlab::hand::HandDrive> {
         None
     }
-    fn hand_force(&mut self, _: f64, _: f64, _: &frictionlab::device::DeviceSample) -> f64 {
+    fn hand_force(
+        &mut self,
+        _: frictionlab::time::Time,
+        _: f64,
+        _: &frictionlab::device::DeviceSample,
+    ) -> f64 {
         0.0
     }
 }
@@ -517,7 +521,10 @@ fn assert_lost_in_answer_phase(log: &Path) {
         (r.trial, r.status, r.requeued, r.abort_reason.as_deref()),
         (0, Status::Aborted, true, Some("device lost"))
     );
-    assert!(r.ended_s > r.started_s + 2.0, "lost after the exploration");
+    assert!(
+        r.ended_s > r.started_s + frictionlab::time::Time::from_whole_secs(2),
+        "lost after the exploration"
+    );
 }
 
 /// Issue 13: headless device runs counted a trial as live only while a

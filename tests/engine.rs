@@ -12,6 +12,7 @@ use frictionlab::kinds::{Action, Engine, TrialData, TrialRecord};
 use frictionlab::protocol::engine::{Answer, Choice, Input, Question, Screen, Status};
 use frictionlab::protocol::load::parse;
 use frictionlab::protocol::plan::resolve;
+use frictionlab::time::Time;
 
 fn engine(name: &str) -> Engine {
     let text = std::fs::read_to_string(format!(
@@ -36,26 +37,32 @@ fn record(actions: &[Action]) -> Option<&TrialRecord> {
     })
 }
 
+/// `x` seconds of session time.
+fn s(x: f64) -> Time {
+    Time::from_secs(x).unwrap()
+}
+
 #[test]
 fn bad_magnitudes_are_refused_and_asked_again_never_logged() {
     let mut e = engine("magnitude-quick");
-    e.handle(0.0, Input::Start);
+    e.handle(s(0.0), Input::Start);
     assert!(matches!(
         drain(&mut e)[..],
         [Action::Show(Screen::Instructions(_))]
     ));
-    e.handle(0.0, Input::Continue);
+    e.handle(s(0.0), Input::Continue);
     let a = drain(&mut e);
     assert!(a.iter().any(|a| matches!(a, Action::Render(Some(_)))));
-    assert!(a.iter().any(
-        |a| matches!(a, Action::Show(Screen::Explore { until_s }) if (*until_s - 2.0).abs() < 1e-12)
-    ));
-    e.handle_timeout(2.0);
+    assert!(
+        a.iter()
+            .any(|a| matches!(a, Action::Show(Screen::Explore { until }) if *until == s(2.0)))
+    );
+    e.handle_timeout(s(2.0));
     assert!(drain(&mut e).contains(&Action::Ask(Question::Magnitude)));
     for bad in [
         "", "  ", "abc", "1,5", "0", "-3", "-0", "inf", "NaN", "1e999",
     ] {
-        e.handle(2.5, Input::Answer(Answer::Magnitude(bad.into())));
+        e.handle(s(2.5), Input::Answer(Answer::Magnitude(bad.into())));
         let a = drain(&mut e);
         assert!(
             matches!(
@@ -65,7 +72,7 @@ fn bad_magnitudes_are_refused_and_asked_again_never_logged() {
             "{bad:?}: {a:?}"
         );
     }
-    e.handle(3.0, Input::Answer(Answer::Magnitude(" 2.5 ".into())));
+    e.handle(s(3.0), Input::Answer(Answer::Magnitude(" 2.5 ".into())));
     let a = drain(&mut e);
     let r = record(&a).expect("recorded");
     let TrialData::MagnitudeEstimation(MagnitudeData {
@@ -83,17 +90,17 @@ fn bad_magnitudes_are_refused_and_asked_again_never_logged() {
 #[test]
 fn the_next_trial_waits_until_the_record_is_on_disk() {
     let mut e = engine("magnitude-quick");
-    e.handle(0.0, Input::Start);
-    e.handle(0.0, Input::Continue);
+    e.handle(s(0.0), Input::Start);
+    e.handle(s(0.0), Input::Continue);
     drain(&mut e);
-    e.handle(1.0, Input::Answer(Answer::Magnitude("4".into())));
+    e.handle(s(1.0), Input::Answer(Answer::Magnitude("4".into())));
     assert!(record(&drain(&mut e)).is_some());
     // Nothing moves until Recorded: no new stimulus, answers ignored.
-    e.handle_timeout(1.5);
-    e.handle(1.5, Input::Answer(Answer::Magnitude("5".into())));
+    e.handle_timeout(s(1.5));
+    e.handle(s(1.5), Input::Answer(Answer::Magnitude("5".into())));
     assert!(drain(&mut e).is_empty());
     assert_eq!(e.trial_index(), 0);
-    e.handle(1.6, Input::Recorded);
+    e.handle(s(1.6), Input::Recorded);
     assert_eq!(e.trial_index(), 1);
     assert!(
         drain(&mut e)
@@ -105,20 +112,21 @@ fn the_next_trial_waits_until_the_record_is_on_disk() {
 #[test]
 fn fitts_counts_hits_inside_the_lit_target_and_logs_every_click() {
     let mut e = engine("fitts-quick");
-    e.handle(0.0, Input::Start);
-    e.handle(0.0, Input::Continue);
+    // The test starts at 0.5 s: its click times are logged from there.
+    e.handle(s(0.5), Input::Start);
+    e.handle(s(0.5), Input::Continue);
     let a = drain(&mut e);
     // A = 16 mm, W = 3 mm, D = 1 mm: W' = 2 mm; first lit target at -8 mm.
     assert!(a.iter().any(
         |a| matches!(a, Action::Show(Screen::Fitts { lit_m, other_m, .. })
         if (*lit_m + 0.008).abs() < 1e-12 && (*other_m - 0.008).abs() < 1e-12)
     ));
-    e.handle(1.0, Input::Click { x_m: -0.0085 }); // hit: 0.5 mm from centre, W'/2 = 1 mm
-    e.handle(1.5, Input::Click { x_m: -0.006 }); // miss: the lit one is now +8 mm
-    e.handle(1.6, Input::Click { x_m: 0.0065 }); // miss by 0.5 mm
-    e.handle(1.9, Input::Click { x_m: 0.0075 }); // hit, boundary inclusive would be 0.007
-    e.handle(2.4, Input::Click { x_m: -0.0079 }); // hit
-    e.handle(3.0, Input::Click { x_m: 0.0081 }); // fourth hit: done
+    e.handle(s(1.5), Input::Click { x_m: -0.0085 }); // hit: 0.5 mm from centre, W'/2 = 1 mm
+    e.handle(s(2.0), Input::Click { x_m: -0.006 }); // miss: the lit one is now +8 mm
+    e.handle(s(2.1), Input::Click { x_m: 0.0065 }); // miss by 0.5 mm
+    e.handle(s(2.4), Input::Click { x_m: 0.0075 }); // hit, boundary inclusive would be 0.007
+    e.handle(s(2.9), Input::Click { x_m: -0.0079 }); // hit
+    e.handle(s(3.5), Input::Click { x_m: 0.0081 }); // fourth hit: done
     let a = drain(&mut e);
     let r = record(&a).expect("done after 4 hits");
     let TrialData::Fitts(FittsData {
@@ -139,7 +147,8 @@ fn fitts_counts_hits_inside_the_lit_target_and_logs_every_click() {
         panic!()
     };
     assert_eq!((*taps, *errors), (4, 2));
-    // Every click, in order, with the lit target's centre and whether it hit.
+    // Every click, in order, from the test's start (issue 42), with the
+    // lit target's centre and whether it hit.
     assert_eq!(click_times_s, &[1.0, 1.5, 1.6, 1.9, 2.4, 3.0]);
     assert_eq!(
         click_x_m,
@@ -175,17 +184,17 @@ fn a_physical_condition_prompts_the_experimenter_and_renders_nothing() {
         .position(|t| format!("{:?}", t.spec).contains("condition: \"real\""))
         .unwrap();
     let mut e = Engine::new(plan, real);
-    e.handle(0.0, Input::Start);
+    e.handle(s(0.0), Input::Start);
     let mut a = drain(&mut e);
     if matches!(a[..], [Action::Show(Screen::Instructions(_))]) {
-        e.handle(0.0, Input::Continue);
+        e.handle(s(0.0), Input::Continue);
         a = drain(&mut e);
     }
     assert!(
         matches!(&a[..], [Action::Prompt(text)] if text.contains("aluminum block")),
         "{a:?}"
     );
-    e.handle(0.0, Input::Continue);
+    e.handle(s(0.0), Input::Continue);
     let a = drain(&mut e);
     assert!(a.contains(&Action::Render(Some(
         frictionlab::friction::ModelParams::None
@@ -196,12 +205,12 @@ fn a_physical_condition_prompts_the_experimenter_and_renders_nothing() {
 #[test]
 fn an_aborted_trial_is_logged_and_presented_again() {
     let mut e = engine("paired-quick");
-    e.handle(0.0, Input::Start);
-    e.handle(0.0, Input::Continue);
-    e.handle_timeout(1.0); // end of the reference phase
+    e.handle(s(0.0), Input::Start);
+    e.handle(s(0.0), Input::Continue);
+    e.handle_timeout(s(1.0)); // end of the reference phase
     drain(&mut e);
     e.handle(
-        1.5,
+        s(1.5),
         Input::Abort {
             reason: "device lost".into(),
             requeue: true,
@@ -213,10 +222,10 @@ fn an_aborted_trial_is_logged_and_presented_again() {
         (r.status, r.requeued, r.abort_reason.as_deref()),
         (Status::Aborted, true, Some("device lost"))
     );
-    e.handle(1.6, Input::Recorded);
+    e.handle(s(1.6), Input::Recorded);
     assert_eq!(e.trial_index(), 0, "same trial again");
-    e.handle(2.0, Input::Switch(1));
-    e.handle(2.5, Input::Answer(Answer::Paired(Choice::Second)));
+    e.handle(s(2.0), Input::Switch(1));
+    e.handle(s(2.5), Input::Answer(Answer::Paired(Choice::Second)));
     let a = drain(&mut e);
     let r = record(&a).unwrap();
     let TrialData::PairedComparison(PairedData {
@@ -230,7 +239,7 @@ fn an_aborted_trial_is_logged_and_presented_again() {
     };
     assert_eq!(choice, &Some(Choice::Second));
     assert_eq!(chosen.as_deref(), Some(second.as_str()));
-    e.handle(2.6, Input::Recorded);
+    e.handle(s(2.6), Input::Recorded);
     assert!(drain(&mut e).contains(&Action::Finished) && e.is_finished());
 }
 
@@ -241,19 +250,23 @@ fn an_aborted_trial_is_logged_and_presented_again() {
 fn the_engine_says_when_to_wake_it_and_ignores_early_timeouts() {
     let mut e = engine("magnitude-quick");
     assert_eq!(e.poll_timeout(), None, "nothing is timed before the start");
-    e.handle(0.0, Input::Start);
-    e.handle(0.0, Input::Continue);
+    e.handle(s(0.0), Input::Start);
+    e.handle(s(0.0), Input::Continue);
     drain(&mut e);
-    assert_eq!(e.poll_timeout(), Some(2.0), "the exploration ends at 2 s");
-    e.handle_timeout(1.999);
+    assert_eq!(
+        e.poll_timeout(),
+        Some(s(2.0)),
+        "the exploration ends at 2 s"
+    );
+    e.handle_timeout(s(1.999));
     assert!(drain(&mut e).is_empty(), "not due yet");
-    e.handle_timeout(2.0);
+    e.handle_timeout(s(2.0));
     assert_eq!(
         drain(&mut e),
         vec![Action::Render(None), Action::Ask(Question::Magnitude)]
     );
     assert_eq!(e.poll_timeout(), None, "the question waits without a timer");
-    e.handle_timeout(10.0);
+    e.handle_timeout(s(10.0));
     assert!(drain(&mut e).is_empty(), "an expired exploration asks once");
 }
 

@@ -1132,6 +1132,45 @@ fn a_protocol_built_new_of_each_kind_is_saved_valid_and_simulates_issue_37() {
     ));
 }
 
+/// Issue 42: typing a number that would make a plan of a billion trials
+/// (or an exploration of 1e300 s) into the builder: the frame that checks
+/// it ends within a second (the plan's size is computed, not built), the
+/// refusal shows under the field, and Save waits.
+#[test]
+fn a_huge_number_typed_into_the_builder_is_refused_at_its_field_at_once_issue_42() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(&dir.path().join("results"), "p52", None);
+    builder(&mut h);
+    click(&mut h, "magnitude_estimation");
+    for (field, huge, said) in [
+        (
+            "repetitions",
+            "1000000000",
+            "repetitions: the plan would hold 3000000000 trials",
+        ),
+        (
+            "exploration_s (s)",
+            "1e300",
+            "design.exploration_s: 1e300 s is longer than a session's longest time",
+        ),
+    ] {
+        type_into(&mut h, field, huge);
+        // The check runs after the frame that took the edit.
+        let start = std::time::Instant::now();
+        h.step();
+        let took = start.elapsed();
+        assert!(
+            took < std::time::Duration::from_secs(1),
+            "{field}: {took:?}"
+        );
+        h.get_by_label_contains(said);
+        assert!(h.get_by_label("Save").accesskit_node().is_disabled());
+        type_into(&mut h, field, "1");
+        h.step();
+        assert!(h.query_by_label_contains(said).is_none(), "{field}");
+    }
+}
+
 #[test]
 fn an_invalid_edit_shows_validates_message_at_its_field_and_save_waits_for_the_fix_issue_37() {
     let dir = tempfile::tempdir().unwrap();

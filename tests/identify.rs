@@ -422,14 +422,14 @@ fn sessions_record_each_trials_device_stream_and_identify_reads_it() {
             })
             .collect();
         // Every loop tick of the trial, at 1 kHz.
-        let expected = (r.ended_s - r.started_s) * 1000.0;
+        let expected = (r.ended_s - r.started_s).secs() * 1000.0;
         assert!(
             (rows.len() as f64 - expected).abs() <= 2.0,
             "trial {}: {} rows for {expected} ticks",
             r.trial,
             rows.len()
         );
-        assert!((rows[0][0] - r.started_s).abs() <= 1.5e-3);
+        assert!((rows[0][0] - r.started_s.secs()).abs() <= 1.5e-3);
         let data = serde_json::to_value(&r.data).unwrap();
         if data["condition"] == "high_stiction" {
             let json = identify_json(&path, &["--model", "karnopp"]);

@@ -268,6 +268,80 @@ fn a_pylsl_inlet_receives_every_marker_and_the_device_stream_of_a_simulated_sess
     }
 }
 
+/// Issue 42: the real LabRecorder (its recording code, from PyPI), started
+/// before the session as a lab starts it, with the session's two streams
+/// on its watch list. Both streams exist while the session waits for a
+/// reader on each (`--lsl-wait`), so the recorder takes both before the
+/// first marker: the XDF holds every marker once and in order, its device
+/// stream starts at or before `session_start` and holds every sample the
+/// log says was pushed, and the trials' LSL times are their markers'.
+#[test]
+fn labrecorder_started_before_the_session_records_both_streams_from_the_first_marker_issue_42() {
+    let Some(t) = paced() else {
+        return;
+    };
+    if !common::need_labrecorder(&t.python) {
+        return;
+    }
+    let dir = t.dir.path();
+    let results = dir.join("r");
+    let (out, ready, stop) = (dir.join("got.json"), dir.join("ready"), dir.join("stop"));
+    let mut recorder = Command::new(&t.python)
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/lsl/record.py"))
+        .args(["frictionlab magnitude-quick lab", out.to_str().unwrap()])
+        .args(["--xdf", dir.join("rec.xdf").to_str().unwrap()])
+        .args(["--ready", ready.to_str().unwrap()])
+        .args(["--stop", stop.to_str().unwrap(), "--timeout", "240"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    // The recorder records before the session exists.
+    let start = Instant::now();
+    while !ready.exists() {
+        assert!(
+            start.elapsed() < Duration::from_mins(1),
+            "the recorder never started"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let mut args = sim_run(&results, "lab", &t.lib);
+    let pace = args.iter().position(|a| a == "--pace").unwrap();
+    args[pace + 1] = "2".into();
+    let run = Command::new(BIN).args(&args).output().unwrap();
+    std::fs::write(&stop, b"").unwrap();
+    let status = recorder.wait().unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(status.success(), "the recorder failed: {status}");
+    let got: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let log = only_log(&results);
+    let stats = &lsl_lines(&results)[0];
+    let marks = markers(&got);
+    assert_in_order(&marks);
+    assert_eq!(stats["markers"].as_u64(), Some(marks.len() as u64));
+    assert_eq!(marks.len(), implied_markers(&log), "{marks:?}");
+    assert_eq!(marks[0].1["event"], "session_start");
+    assert_trial_times(&log, &marks);
+    let device = &got["device"];
+    assert_eq!(device["channels"], 4);
+    assert_eq!(device["increasing"], true);
+    assert!(
+        device["first"].as_f64().unwrap() <= marks[0].0,
+        "the device stream starts at {} s, after session_start at {} s",
+        device["first"],
+        marks[0].0
+    );
+    assert_eq!(stats["dropped_samples"], 0);
+    assert_eq!(
+        device["count"], stats["samples"],
+        "every sample pushed is recorded"
+    );
+}
+
 #[test]
 fn a_device_rendering_on_board_publishes_its_telemetry_with_the_tick_channel() {
     let Some(t) = paced() else {

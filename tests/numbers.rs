@@ -8,6 +8,8 @@
     reason = "a failed unwrap is a failed test"
 )]
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -24,17 +26,8 @@ fn csvs(dir: &Path, out: &mut Vec<PathBuf>) {
 
 #[test]
 fn no_csv_field_of_any_shipped_protocol_is_longer_than_25_characters_issue_37() {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let tmp = tempfile::tempdir().unwrap();
-    let mut protocols: Vec<PathBuf> = std::fs::read_dir(root.join("protocols"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| {
-            p.extension().is_some_and(|x| x == "json")
-                && !p.to_string_lossy().ends_with(".schema.json")
-        })
-        .collect();
-    protocols.sort();
+    let protocols = common::shipped_protocols();
     assert!(protocols.len() >= 8);
     for p in &protocols {
         let name = p.file_stem().unwrap().to_string_lossy().into_owned();

@@ -29,7 +29,7 @@ pub(crate) fn show(
 ) {
     ui.spacing_mut().button_padding = vec2(16.0, 10.0);
     let view = live.view();
-    let now = live.now_s();
+    let now = live.now();
     match live.phase() {
         Phase::Finished => {
             big(ui, "Thank you! The session is complete.");
@@ -61,31 +61,31 @@ pub(crate) fn show(
         }
         Some(Screen::Reference {
             instructions,
-            until_s,
+            until,
         }) => {
             big(ui, instructions);
-            countdown(ui, "Reference", *until_s - now);
+            countdown(ui, "Reference", (*until - now).secs());
             continue_button(ui, commands);
         }
-        Some(Screen::Break { until_s }) => {
+        Some(Screen::Break { until }) => {
             big(ui, "Break");
-            countdown(ui, "The next block starts", *until_s - now);
+            countdown(ui, "The next block starts", (*until - now).secs());
             continue_button(ui, commands);
         }
-        Some(Screen::Explore { until_s }) => {
+        Some(Screen::Explore { until }) => {
             big(ui, "Explore the surface.");
-            countdown(ui, "Exploration", *until_s - now);
+            countdown(ui, "Exploration", (*until - now).secs());
             magnitude_entry(ui, answer, view.question.is_some(), commands);
         }
         Some(Screen::Paired {
             active,
-            until_s,
+            until,
             forced,
         }) => {
             paired(
                 ui,
                 *active,
-                *until_s - now,
+                (*until - now).secs(),
                 view.question,
                 forced.as_deref(),
                 commands,

@@ -35,6 +35,7 @@ use crate::protocol::engine::{self, Input, TrialSource};
 use crate::protocol::kind::{Block, Holds, KindInfo, Kinds, LiveTrial, Next, StudyKind};
 use crate::protocol::load::Walk;
 use crate::protocol::{self, plan};
+use crate::time::Time;
 
 /// A protocol of the registered kinds.
 pub type Protocol = protocol::Protocol<Registry>;
@@ -197,6 +198,12 @@ macro_rules! kinds {
                 }
             }
 
+            fn trials_per_repetition(design: &Design) -> u64 {
+                match design {
+                    $($(#[cfg($cfg)])? Design::$variant(d) => <$module::$kind as StudyKind>::trials_per_repetition(d),)*
+                }
+            }
+
             fn blocks(design: &Design) -> Vec<Block<TrialSpec>> {
                 match design {
                     $(
@@ -275,7 +282,7 @@ macro_rules! kinds {
                 }
             }
 
-            fn start(trial: &TrialSpec, now: f64, out: &mut VecDeque<Action>) -> LiveState {
+            fn start(trial: &TrialSpec, now: Time, out: &mut VecDeque<Action>) -> LiveState {
                 match trial {
                     $(
                         $(#[cfg($cfg)])?
@@ -286,13 +293,13 @@ macro_rules! kinds {
                 }
             }
 
-            fn timeout(live: &LiveState) -> Option<f64> {
+            fn timeout(live: &LiveState) -> Option<Time> {
                 match live {
                     $($(#[cfg($cfg)])? LiveState::$variant(t) => t.timeout(),)*
                 }
             }
 
-            fn on_timeout(live: &mut LiveState, now: f64, out: &mut VecDeque<Action>) -> Next {
+            fn on_timeout(live: &mut LiveState, now: Time, out: &mut VecDeque<Action>) -> Next {
                 match live {
                     $($(#[cfg($cfg)])? LiveState::$variant(t) => t.on_timeout(now, out),)*
                 }
@@ -300,7 +307,7 @@ macro_rules! kinds {
 
             fn on_input(
                 live: &mut LiveState,
-                now: f64,
+                now: Time,
                 input: Input,
                 out: &mut VecDeque<Action>,
             ) -> Next {
@@ -309,7 +316,7 @@ macro_rules! kinds {
                 }
             }
 
-            fn data(live: &LiveState, started: f64, now: f64, completed: bool) -> TrialData {
+            fn data(live: &LiveState, started: Time, now: Time, completed: bool) -> TrialData {
                 match live {
                     $(
                         $(#[cfg($cfg)])?

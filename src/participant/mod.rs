@@ -22,9 +22,14 @@
 //! A participant's traits are drawn from (seed, participant id); everything
 //! random within a trial from (trial seed, participant id); its memory of
 //! the desk from (seed, participant id). Each trial starts with the hand and
-//! the device at rest at a home position, so an answer is a pure function of
-//! (seed, participant, trial), and a resumed session gets the same answers
-//! as an uninterrupted one.
+//! the device at rest at a home position and the hand's effort at zero, and
+//! everything within it runs on the trial's own clock (whole nanoseconds
+//! since its start, [`Time`]) with movement segments numbered from the
+//! trial's index: what it does depends on the seed, the trial and the tick
+//! within the trial, never on where the session clock stood when the trial
+//! began (issue 42). So an answer is a pure function of (seed, participant,
+//! trial), and a resumed session gets the same answers as an
+//! uninterrupted one.
 
 mod movement;
 pub mod percept;
@@ -39,6 +44,7 @@ use crate::hand::{Hand, HandDrive};
 use crate::protocol::engine::{Action, Answer, Choice, Input, Question, Screen};
 use crate::protocol::kind::Kinds;
 use crate::protocol::plan::PlannedTrial;
+use crate::time::Time;
 pub use movement::MAX_CORRECTIONS;
 use movement::{Step, Tap};
 use percept::{Acuity, Desk, Features, Felt, SLIDE_REST_S, SLIDE_S};
@@ -167,9 +173,12 @@ pub struct SimParticipant {
     traits: Traits,
     behaviour: Behaviour,
     hand: Hand,
-    /// The hand's movement segment (see [`crate::hand`]): a new trial or a
-    /// new Fitts target starts the next.
+    /// The hand's movement segment (see [`crate::hand`]): a new trial
+    /// starts the first of its own ([`segment_of`]), a new Fitts target the
+    /// next.
     segment: u32,
+    /// When the trial under way started: its clock's origin.
+    trial_start: Time,
     rng: ChaCha8Rng,
     /// What it remembers of the desk (perceived features), once it slid.
     desk: Option<Features>,
@@ -191,8 +200,8 @@ enum Behaviour {
 
 #[derive(Debug, Clone)]
 struct Explore {
-    start: f64,
-    stop: f64,
+    start: Time,
+    stop: Time,
     felt: Felt,
     answered: bool,
     /// The stroke's phase as the simulated device steps it.
@@ -252,7 +261,7 @@ impl Phasor {
 #[derive(Debug, Clone)]
 struct Slide {
     stimulus: usize,
-    start: f64,
+    start: Time,
     trace: Vec<(f64, f64)>,
     /// Forced choice: what the slide felt like.
     felt: percept::BreakAway,
@@ -272,6 +281,18 @@ struct Slide {
 /// reference by about 1 cm, so the slide stays inside the 3.2 cm range.
 const SLIDE_START_M: f64 = -0.0158;
 
+/// The first movement segment of trial `index` (its later ones follow):
+/// numbered from the trial's index, so the hand's segments do not depend
+/// on how many trials came before in this run (a resume runs fewer).
+fn segment_of(index: usize) -> u32 {
+    #[expect(
+        clippy::cast_possible_truncation,
+        reason = "segments only need to differ from the last one"
+    )]
+    let index = index as u32;
+    index.wrapping_mul(1 << 12).wrapping_add(1)
+}
+
 impl SimParticipant {
     /// Participant `id` of a study with seed `seed`, drawn from `population`.
     #[must_use]
@@ -283,6 +304,7 @@ impl SimParticipant {
             behaviour: Behaviour::Idle,
             hand: Hand::default(),
             segment: 0,
+            trial_start: Time::ZERO,
             rng: ChaCha8Rng::seed_from_u64(seed),
             desk: None,
             preference: population.paired_preference.clone(),
@@ -325,7 +347,7 @@ impl SimParticipant {
     /// Reacts to an engine action; `trial` is the engine's current trial.
     pub fn on_action<K: Kinds>(
         &mut self,
-        now: f64,
+        now: Time,
         action: &Action<K>,
         trial: Option<&PlannedTrial<K>>,
     ) -> Reaction {
@@ -341,11 +363,12 @@ impl SimParticipant {
             Action::Show(Screen::Instructions(_) | Screen::Break { .. }) | Action::Prompt(_) => {
                 idle
             }
-            Action::Show(Screen::Explore { until_s }) => {
-                self.start_trial(trial);
+            Action::Show(Screen::Explore { until }) => {
+                self.start_trial(trial, now);
+                let explore = Time::from_secs_saturating(self.traits.explore_s);
                 self.behaviour = Behaviour::Explore(Explore {
                     start: now,
-                    stop: now + self.traits.explore_s.min(until_s - now).max(0.0),
+                    stop: now + explore.min(*until - now),
                     felt: Felt::default(),
                     answered: false,
                     phase: Phasor::new(),
@@ -358,7 +381,7 @@ impl SimParticipant {
             Action::Show(Screen::Paired {
                 active: 0, forced, ..
             }) if !matches!(self.behaviour, Behaviour::Slide(_)) => {
-                self.start_trial(trial);
+                self.start_trial(trial, now);
                 let preferred = self.preferred_stimulus(trial);
                 self.behaviour = Behaviour::Slide(Box::new(Slide {
                     stimulus: 0,
@@ -401,33 +424,43 @@ impl SimParticipant {
         }
     }
 
-    /// Reseeds the trial's randomness from (trial seed, participant).
-    fn start_trial<K: Kinds>(&mut self, trial: Option<&PlannedTrial<K>>) {
+    /// A trial starts at `now`: its clock starts, its randomness is
+    /// reseeded from (trial seed, participant), the hand's effort is let
+    /// go, and its first movement segment is the trial's own.
+    fn start_trial<K: Kinds>(&mut self, trial: Option<&PlannedTrial<K>>, now: Time) {
         let seed = trial.map_or(0, |t| t.seed);
         self.rng = ChaCha8Rng::seed_from_u64(seed ^ id_hash(&self.id));
-        self.segment = self.segment.wrapping_add(1);
+        self.trial_start = now;
+        self.hand = Hand::default();
+        self.segment = segment_of(trial.map_or(0, |t| t.index));
+    }
+
+    /// Seconds since the trial under way started (exact: a whole number
+    /// of nanoseconds, divided once).
+    fn local(&self, now: Time) -> f64 {
+        (now - self.trial_start).secs()
     }
 
     /// A Fitts screen: `w_eff` is the width that counts for a hit.
     fn fitts_screen<K: Kinds>(
         &mut self,
-        now: f64,
+        now: Time,
         trial: Option<&PlannedTrial<K>>,
         lit_other: [f64; 2],
         w_eff: f64,
     ) -> Reaction {
         let mut behaviour = std::mem::replace(&mut self.behaviour, Behaviour::Idle);
         if let Behaviour::Tap(tap) = &mut behaviour {
-            let traits = self.traits;
-            if tap.next_target(&traits, lit_other[0], w_eff, now, |sd| self.normal(sd)) {
+            let (traits, s) = (self.traits, self.local(now));
+            if tap.next_target(&traits, lit_other[0], w_eff, s, |sd| self.normal(sd)) {
                 self.segment = self.segment.wrapping_add(1);
             }
             self.behaviour = behaviour;
             return Reaction::default();
         }
         // A new test: the hand starts at rest on the first lit target.
-        self.start_trial(trial);
-        self.behaviour = Behaviour::Tap(Box::new(Tap::start(lit_other, w_eff, now)));
+        self.start_trial(trial, now);
+        self.behaviour = Behaviour::Tap(Box::new(Tap::start(lit_other, w_eff, 0.0)));
         Reaction {
             inputs: vec![],
             reset_to: Some(lit_other[0]),
@@ -436,7 +469,7 @@ impl SimParticipant {
 
     /// The hand's reference and impedance at `now`.
     #[must_use]
-    pub fn drive(&self, now: f64, sample: &DeviceSample) -> HandDrive {
+    pub fn drive(&self, now: Time, sample: &DeviceSample) -> HandDrive {
         let t = &self.traits;
         match &self.behaviour {
             Behaviour::Idle => HandDrive {
@@ -444,18 +477,18 @@ impl SimParticipant {
                 ..HandDrive::relaxed(sample.x_m, t.hand_damping_n_s_m)
             },
             Behaviour::Explore(e) => {
-                let s = now - e.start;
+                let s = (now - e.start).secs();
                 let phase = (self.stroke_w() * s).sin_cos();
                 self.stroke(s, phase)
             }
             Behaviour::Slide(sl) => percept::slide_drive(
-                now - sl.start,
+                (now - sl.start).secs(),
                 SLIDE_START_M,
                 t.hand_stiffness_n_m,
                 t.hand_damping_n_s_m,
                 self.segment,
             ),
-            Behaviour::Tap(tap) => tap.drive(t, now, self.segment),
+            Behaviour::Tap(tap) => tap.drive(t, self.local(now), self.segment),
         }
     }
 
@@ -482,10 +515,10 @@ impl SimParticipant {
     /// The force the hand applies to the device this tick, N. The
     /// exploring stroke's phase is stepped ([`Phasor`]), as the simulated
     /// device calls this once per tick.
-    pub fn hand_force(&mut self, now: f64, dt: f64, sample: &DeviceSample) -> f64 {
+    pub fn hand_force(&mut self, now: Time, dt: f64, sample: &DeviceSample) -> f64 {
         let w = self.stroke_w();
         let d = if let Behaviour::Explore(e) = &mut self.behaviour {
-            let s = now - e.start;
+            let s = (now - e.start).secs();
             let phase = e.phase.at(s, w);
             self.stroke(s, phase)
         } else {
@@ -495,7 +528,7 @@ impl SimParticipant {
     }
 
     /// What the participant decides after this tick, if anything.
-    pub fn decide(&mut self, now: f64, sample: &DeviceSample) -> Reaction {
+    pub fn decide(&mut self, now: Time, sample: &DeviceSample) -> Reaction {
         // The exploring hand, every tick of a magnitude trial: in place.
         if let Behaviour::Explore(e) = &mut self.behaviour {
             e.felt.add(sample.force_n, sample.vibration, sample.v_m_s);
@@ -517,8 +550,8 @@ impl SimParticipant {
             }
             Behaviour::Slide(sl) => self.slide_tick(sl, now, sample),
             Behaviour::Tap(tap) => {
-                let traits = self.traits;
-                match tap.decide(&traits, now, sample.x_m, sample.v_m_s, |sd| self.normal(sd)) {
+                let (traits, s) = (self.traits, self.local(now));
+                match tap.decide(&traits, s, sample.x_m, sample.v_m_s, |sd| self.normal(sd)) {
                     Step::Wait => Reaction::default(),
                     Step::Click(x_m) => Reaction {
                         inputs: vec![Input::Click { x_m }],
@@ -531,14 +564,14 @@ impl SimParticipant {
         reaction
     }
 
-    fn slide_tick(&mut self, sl: &mut Slide, now: f64, sample: &DeviceSample) -> Reaction {
+    fn slide_tick(&mut self, sl: &mut Slide, now: Time, sample: &DeviceSample) -> Reaction {
+        let s = (now - sl.start).secs();
         if sl.forced {
-            sl.felt
-                .add(now - sl.start, sample.x_m, sample.force_n, sample.vibration);
+            sl.felt.add(s, sample.x_m, sample.force_n, sample.vibration);
         } else {
-            sl.trace.push((now - sl.start, sample.force_n));
+            sl.trace.push((s, sample.force_n));
         }
-        if now - sl.start <= SLIDE_REST_S + SLIDE_S || sl.answered {
+        if now - sl.start <= Time::from_secs_saturating(SLIDE_REST_S + SLIDE_S) || sl.answered {
             return Reaction::default();
         }
         if sl.forced {

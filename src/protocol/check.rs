@@ -9,6 +9,14 @@ use super::Protocol;
 use super::kind::Kinds;
 use super::load::id_problem;
 use crate::problem::Problem;
+use crate::time::MAX_PROTOCOL_S;
+
+/// The most trials a session may hold (issue 42): its plan's size is
+/// computed from the protocol's fields before anything is allocated, and a
+/// larger plan is refused with its place. At 2 s a trial, 100,000 trials
+/// take more than 55 hours: no session a person sits through, and a plan a
+/// few tens of megabytes large.
+pub const MAX_TRIALS: u64 = 100_000;
 
 /// Collects the problems of value checks, each at its JSON path under a
 /// prefix (`design.` for a kind's checks).
@@ -28,14 +36,42 @@ impl Checks<'_> {
     /// `x` must be finite and greater than 0.
     pub fn positive(&mut self, path: &str, x: f64) {
         if !(x.is_finite() && x > 0.0) {
-            self.err(path, format!("must be greater than 0, got {x}"));
+            self.err(path, format!("must be greater than 0, got {}", shown(x)));
         }
     }
 
     /// `x` must be finite and not negative.
     pub fn non_negative(&mut self, path: &str, x: f64) {
         if !(x.is_finite() && x >= 0.0) {
-            self.err(path, format!("must not be negative, got {x}"));
+            self.err(path, format!("must not be negative, got {}", shown(x)));
+        }
+    }
+
+    /// A duration `x`, s: not negative and at most [`MAX_PROTOCOL_S`] (one
+    /// day), so the session's clock, in whole nanoseconds, holds it and
+    /// every sum of them ([`crate::time::Time`]).
+    pub fn duration(&mut self, path: &str, x: f64) {
+        if !(x.is_finite() && x >= 0.0) {
+            self.err(path, format!("must not be negative, got {}", shown(x)));
+        } else if x > MAX_PROTOCOL_S {
+            self.err(path, too_long(x));
+        }
+    }
+
+    /// A duration `x`, s, greater than 0 and at most [`MAX_PROTOCOL_S`].
+    pub fn positive_duration(&mut self, path: &str, x: f64) {
+        if !(x.is_finite() && x > 0.0) {
+            self.err(path, format!("must be greater than 0, got {}", shown(x)));
+        } else if x > MAX_PROTOCOL_S {
+            self.err(path, too_long(x));
+        }
+    }
+
+    /// A count a kind's field makes grow (trials of an adaptive track,
+    /// points of a grid): at most `max`.
+    pub fn at_most(&mut self, path: &str, what: &str, n: u64, max: u64) {
+        if n > max {
+            self.err(path, format!("{what} would be {n}; at most {max}"));
         }
     }
 
@@ -65,7 +101,28 @@ impl Checks<'_> {
     }
 }
 
-/// Value checks on a structurally valid protocol.
+fn too_long(x: f64) -> String {
+    format!(
+        "{} s is longer than a session's longest time, {MAX_PROTOCOL_S} s (one day)",
+        shown(x)
+    )
+}
+
+/// `x` as a message shows it: its shortest text, with an exponent where
+/// that is shorter (`1e300`, not three hundred digits).
+#[must_use]
+pub fn shown(x: f64) -> String {
+    let (plain, exponent) = (format!("{x}"), format!("{x:e}"));
+    if exponent.len() < plain.len() {
+        exponent
+    } else {
+        plain
+    }
+}
+
+/// Value checks on a structurally valid protocol. The plan's size comes
+/// first, from the fields alone; a plan over [`MAX_TRIALS`] is refused
+/// before the design's own checks run.
 pub(super) fn check<K: Kinds>(p: &Protocol<K>, errors: &mut Vec<Problem>) {
     let mut c = Checks { errors, prefix: "" };
     if let Some(why) = id_problem(&p.id) {
@@ -74,7 +131,26 @@ pub(super) fn check<K: Kinds>(p: &Protocol<K>, errors: &mut Vec<Problem>) {
     if p.repetitions == 0 {
         c.err("repetitions", "must be at least 1");
     }
-    c.non_negative("break_s", p.break_s);
+    let per = K::trials_per_repetition(&p.design);
+    let trials = u128::from(per) * u128::from(p.repetitions);
+    if trials > u128::from(MAX_TRIALS) {
+        let (path, why) = if p.repetitions > 1 {
+            (
+                "repetitions",
+                format!("{per} trials x {} repetitions", p.repetitions),
+            )
+        } else {
+            ("design", format!("{per} trials in one repetition"))
+        };
+        c.err(
+            path,
+            format!(
+                "the plan would hold {trials} trials ({why}); a session holds at most {MAX_TRIALS}"
+            ),
+        );
+        return;
+    }
+    c.duration("break_s", p.break_s);
     for (i, v) in p.validation.iter().enumerate() {
         super::validation::check(v, &format!("validation[{i}]"), &mut c);
     }

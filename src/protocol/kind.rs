@@ -34,6 +34,7 @@ use super::check::Checks;
 use super::engine::{Action, Input, Question, TrialSource};
 use super::load::Walk;
 use super::plan::resolve;
+use crate::time::Time;
 
 /// A part of a kind that a plan holds (a trial): data, sent between
 /// threads.
@@ -79,6 +80,9 @@ pub trait Kinds: Debug + Clone + Copy + PartialEq + Send + Sync + 'static {
     fn check_design(design: &Self::Design, c: &mut Checks);
     /// A new design of the kind named `kind` ([`StudyKind::template`]).
     fn template(kind: &str) -> Option<Value>;
+    /// The fixed plan's trials for one repetition of its blocks
+    /// ([`StudyKind::trials_per_repetition`]).
+    fn trials_per_repetition(design: &Self::Design) -> u64;
     /// The blocks of the fixed plan, before ordering.
     fn blocks(design: &Self::Design) -> Vec<Block<Self::Trial>>;
     /// A phase before the first trial: its instructions and duration, s.
@@ -110,20 +114,20 @@ pub trait Kinds: Debug + Clone + Copy + PartialEq + Send + Sync + 'static {
     fn row(data: &Self::Data) -> Vec<String>;
 
     /// Starts `trial` at `now`, pushing what the shell must do.
-    fn start(trial: &Self::Trial, now: f64, out: &mut VecDeque<Action<Self>>) -> Self::Live;
-    /// When a live trial's timer is due, s.
-    fn timeout(live: &Self::Live) -> Option<f64>;
+    fn start(trial: &Self::Trial, now: Time, out: &mut VecDeque<Action<Self>>) -> Self::Live;
+    /// When a live trial's timer is due (session time).
+    fn timeout(live: &Self::Live) -> Option<Time>;
     /// A live trial's timer has fired at `now`.
-    fn on_timeout(live: &mut Self::Live, now: f64, out: &mut VecDeque<Action<Self>>) -> Next;
+    fn on_timeout(live: &mut Self::Live, now: Time, out: &mut VecDeque<Action<Self>>) -> Next;
     /// An input other than an abort, at `now`.
     fn on_input(
         live: &mut Self::Live,
-        now: f64,
+        now: Time,
         input: Input,
         out: &mut VecDeque<Action<Self>>,
     ) -> Next;
     /// What a live trial logs, started at `started`, ended at `now`.
-    fn data(live: &Self::Live, started: f64, now: f64, completed: bool) -> Self::Data;
+    fn data(live: &Self::Live, started: Time, now: Time, completed: bool) -> Self::Data;
 
     /// The data-CSV columns of the kind named `kind`, if it is one.
     #[must_use]
@@ -184,6 +188,14 @@ pub trait StudyKind: Sized + 'static {
     /// design's type are all a kind says about its form.
     fn template() -> Value;
 
+    /// How many trials one repetition of [`StudyKind::blocks`] holds,
+    /// computed from the design's fields alone (nothing built, saturating
+    /// at `u64::MAX`): the plan's size is known, and a plan over the limit
+    /// refused ([`super::check::MAX_TRIALS`]), before anything is
+    /// allocated for it. 0 for a kind with its own [`StudyKind::source`],
+    /// whose own checks bound what its fields make grow.
+    fn trials_per_repetition(design: &Self::Design) -> u64;
+
     /// The blocks of the fixed plan, before ordering; a kind with its own
     /// [`StudyKind::source`] needs none.
     fn blocks(_design: &Self::Design) -> Vec<Block<Self::Trial>> {
@@ -236,7 +248,8 @@ pub trait StudyKind: Sized + 'static {
 
     /// Starts the trial at session time `now`, pushing what the shell must
     /// do (render, show, ask).
-    fn start<K: Kinds>(trial: &Self::Trial, now: f64, out: &mut VecDeque<Action<K>>) -> Self::Live;
+    fn start<K: Kinds>(trial: &Self::Trial, now: Time, out: &mut VecDeque<Action<K>>)
+    -> Self::Live;
 
     /// The data-CSV cells of `data`, one per [`StudyKind::COLUMNS`] entry.
     fn row(data: &Self::Data) -> Vec<String>;
@@ -280,15 +293,20 @@ pub enum Next {
 pub trait LiveTrial: Debug + Clone + Send + Sync + 'static {
     /// What the trial logs.
     type Data;
-    /// When the trial's timer is due, session time in s.
-    fn timeout(&self) -> Option<f64>;
+    /// When the trial's timer is due (session time).
+    fn timeout(&self) -> Option<Time>;
     /// The timer has fired at `now`.
-    fn on_timeout<K: Kinds>(&mut self, now: f64, out: &mut VecDeque<Action<K>>) -> Next;
+    fn on_timeout<K: Kinds>(&mut self, now: Time, out: &mut VecDeque<Action<K>>) -> Next;
     /// An input other than an abort, at `now`.
-    fn on_input<K: Kinds>(&mut self, now: f64, input: Input, out: &mut VecDeque<Action<K>>)
-    -> Next;
-    /// The data logged for the trial, started at `started`, ended at `now`.
-    fn data(&self, started: f64, now: f64, completed: bool) -> Self::Data;
+    fn on_input<K: Kinds>(
+        &mut self,
+        now: Time,
+        input: Input,
+        out: &mut VecDeque<Action<K>>,
+    ) -> Next;
+    /// The data logged for the trial, started at `started`, ended at `now`
+    /// (times inside a trial are logged from its start: `now - started`).
+    fn data(&self, started: Time, now: Time, completed: bool) -> Self::Data;
 }
 
 /// An exploration with a time limit, shared by the kinds that ask a
@@ -296,15 +314,22 @@ pub trait LiveTrial: Debug + Clone + Send + Sync + 'static {
 /// `expired` marks it asked).
 #[derive(Debug, Clone)]
 pub struct Exploration {
-    /// End of the exploration, s.
-    pub until: f64,
+    /// End of the exploration (session time).
+    pub until: Time,
     expired: bool,
 }
 
 impl Exploration {
+    /// An exploration of `duration_s` from `now`: it ends a whole number
+    /// of nanoseconds later, the same wherever it starts.
+    #[must_use]
+    pub fn from(now: Time, duration_s: f64) -> Self {
+        Exploration::until(now + Time::from_secs_saturating(duration_s))
+    }
+
     /// An exploration ending at `until`.
     #[must_use]
-    pub fn until(until: f64) -> Self {
+    pub fn until(until: Time) -> Self {
         Exploration {
             until,
             expired: false,
@@ -313,7 +338,7 @@ impl Exploration {
 
     /// When it is due (`None` once asked).
     #[must_use]
-    pub fn timeout(&self) -> Option<f64> {
+    pub fn timeout(&self) -> Option<Time> {
         (!self.expired).then_some(self.until)
     }
 

@@ -42,6 +42,11 @@ pub struct Validation {
     pub seed: u64,
 }
 
+/// The most simulated participants a row replays (issue 42: what a
+/// protocol's number makes grow is bounded): each is a whole session, and
+/// the sweep replays them again per point.
+pub const MAX_PARTICIPANTS: u64 = 1000;
+
 /// Whether a row validates the participant or calibrates it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
@@ -182,6 +187,12 @@ pub(super) fn check(v: &Validation, at: &str, c: &mut Checks<'_>) {
             ),
         );
     }
+    c.at_most(
+        &format!("{at}.participants"),
+        "the replay's participants",
+        u64::from(v.participants),
+        MAX_PARTICIPANTS,
+    );
     if let Err(why) = steps(&v.statistic.values) {
         c.err(&format!("{at}.statistic.values"), why);
     }

@@ -16,8 +16,13 @@ use crate::protocol::Protocol;
 use crate::protocol::engine::{Status, TrialRecord};
 use crate::protocol::kind::Kinds;
 
-/// Format tag of the log header.
-pub const LOG_FORMAT: &str = "frictionlab-log/1";
+/// Format tag of the log header. Format 2 (issue 42): every time is a
+/// whole number of the session's ticks, and times inside a trial (a Fitts
+/// test's taps and clicks) are measured from the trial's start. Format 1
+/// logs still read: their float session times to the nearest nanosecond
+/// ([`crate::time::Time`]), their Fitts times as the session times they
+/// were.
+pub const LOG_FORMAT: &str = "frictionlab-log/2";
 
 /// The first line of a session log.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -69,6 +74,11 @@ pub enum LogLine<K: Kinds> {
         at_trial: usize,
         /// Bytes of a torn last line that were cut off before resuming.
         torn_bytes: u64,
+        /// The format of the records from here on, when it is not the
+        /// header's: a session begun in an older format and resumed by a
+        /// newer frictionlab (absent: the header's).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        format: Option<String>,
     },
     /// The haptic loop's timing and link statistics (device sessions).
     Loop(crate::device::haptic::LoopStats),

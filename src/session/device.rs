@@ -9,6 +9,7 @@ use crate::device::link::LinkState;
 use crate::device::sim::SimDevice;
 use crate::friction::ModelParams;
 use crate::hand::HandDrive;
+use crate::time::Time;
 
 /// How often the hand drive is sent to an emulated device, s.
 pub const HAND_EVERY_S: f64 = 0.005;
@@ -80,6 +81,12 @@ impl Port {
         Some((tick, pressed))
     }
 
+    /// Drops the ticks the loop has reported and the session has not read
+    /// (those that queued while the session waited before its start).
+    pub(super) fn skip_queued(&mut self) {
+        while self.haptic.recv().is_some() {}
+    }
+
     /// Has the loop queue each connected tick's sample for LSL.
     pub(super) fn publish(&mut self, tap: crate::lsl::SampleTap) {
         self.haptic.send(ToLoop::Publish(tap));
@@ -139,11 +146,12 @@ impl Port {
 
 /// Where a session renders friction.
 pub(super) enum Device {
-    /// The simulated apparatus, stepped at `dt` (the rendered model's
-    /// rate), rendering the session's render number `render`.
+    /// The simulated apparatus, stepped at `dt` (the period of the
+    /// rendered model's rate, whole nanoseconds), rendering the session's
+    /// render number `render`.
     Sim {
         device: Box<SimDevice>,
-        dt: f64,
+        dt: Time,
         render: u32,
     },
     /// The haptic loop on a serial port.
@@ -167,7 +175,7 @@ impl Device {
                 let step = StepParams::default();
                 Device::Sim {
                     device: Box::new(SimDevice::new(Apparatus::default(), hand_mass_kg, step)),
-                    dt: step.dt(),
+                    dt: Time::period(step.rate_hz),
                     render: 0,
                 }
             }
@@ -199,7 +207,7 @@ impl Device {
                 device.set_model(model);
                 *current = render;
                 if let Some(m) = model {
-                    *dt = 1.0 / m.loop_rate_hz();
+                    *dt = Time::period(m.loop_rate_hz());
                 }
             }
             Device::Port(port) => port.haptic.send(ToLoop::Model {
@@ -217,7 +225,7 @@ impl Device {
             Device::Sim { device, dt, .. } => Some(super::renders::How {
                 mode: crate::protocol::engine::RenderMode::Simulated,
                 float: crate::friction::Float::F64,
-                rate_hz: 1.0 / dt,
+                rate_hz: 1.0 / dt.secs(),
                 ramp_s: 0.0,
                 force_limit_n: device.force_limit_n(),
             }),
@@ -290,7 +298,7 @@ impl Device {
     /// Connected, rate and period p99.
     pub(super) fn status(&self) -> (bool, f64, Option<f64>) {
         let (rate_hz, p99) = match self {
-            Device::Sim { dt, .. } => (1.0 / dt, None),
+            Device::Sim { dt, .. } => (1.0 / dt.secs(), None),
             Device::Stopped { rate_hz } => (*rate_hz, None),
             Device::Port(port) => (port.rate_hz, percentile(&port.periods, 0.99)),
         };

@@ -6,6 +6,7 @@
 use crate::device::DeviceSample;
 use crate::device::link::LinkState;
 use crate::friction::ModelParams;
+use crate::time::Time;
 
 use super::device::Device;
 use super::responder::{Person, Responder};
@@ -24,8 +25,8 @@ pub struct Feel {
     device: Device,
     person: Person,
     sample: DeviceSample,
-    /// Device time, s (the simulated device's, or the port's loop clock).
-    t: f64,
+    /// Device time (the simulated device's, or the port's loop clock).
+    t: Time,
     model: ModelParams,
 }
 
@@ -55,7 +56,7 @@ impl Feel {
             device,
             person,
             sample: DeviceSample::default(),
-            t: now_s,
+            t: Time::from_secs_saturating(now_s),
             model: model.clone(),
         })
     }
@@ -86,10 +87,11 @@ impl Feel {
         match &mut self.device {
             Device::Sim { device, dt, .. } => {
                 let dt = *dt;
-                self.t = self.t.max(now_s - MOST_BEHIND_S);
-                while self.t + dt <= now_s {
-                    let force = self.person.hand_force(self.t, dt, &self.sample);
-                    self.sample = device.step(dt, force);
+                let now = Time::from_secs_saturating(now_s);
+                self.t = self.t.max(now - Time::from_secs_saturating(MOST_BEHIND_S));
+                while self.t + dt <= now {
+                    let force = self.person.hand_force(self.t, dt.secs(), &self.sample);
+                    self.sample = device.step(dt.secs(), force);
                     self.t += dt;
                 }
             }
@@ -98,7 +100,7 @@ impl Feel {
                     if tick.link != LinkState::Connected {
                         continue;
                     }
-                    self.t = tick.now_s;
+                    self.t = Time::from_secs_saturating(tick.now_s);
                     self.sample = tick.sample();
                     if let Some(drive) = self.person.drive(self.t, &self.sample) {
                         port.drive_hand(tick.now_s, &drive);
@@ -151,6 +153,7 @@ mod tests {
         let model = ModelParams::default_for("karnopp").unwrap();
         let mut feel = Feel::start(&DeviceChoice::Simulated, &model, 0.0).unwrap();
         feel.advance(100.0, Some(0.0));
-        assert!(feel.t >= 100.0 - 1e-3 && feel.t <= 100.0, "{}", feel.t);
+        let t = feel.t.secs();
+        assert!((100.0 - 1e-3..=100.0).contains(&t), "{t}");
     }
 }

@@ -12,6 +12,7 @@ use crate::interrupt::{Interrupt, Signal};
 use crate::kinds::{Header, Protocol, ReadLog};
 use crate::participant::SimParticipant;
 use crate::results::ResultsDir;
+use crate::time::Time;
 
 /// How a session went.
 #[derive(Debug, Clone, PartialEq)]
@@ -62,15 +63,15 @@ pub fn sim_participant(h: &Header) -> SimParticipant {
 struct Pacer {
     pace: Option<f64>,
     wall: Instant,
-    virtual_start: f64,
+    virtual_start: Time,
 }
 
 impl Pacer {
-    fn wait(&self, t: f64) {
+    fn wait(&self, t: Time) {
         let Some(pace) = self.pace.filter(|p| p.is_finite() && *p > 0.0) else {
             return;
         };
-        let due = Duration::from_secs_f64(((t - self.virtual_start) / pace).max(0.0));
+        let due = Duration::from_secs_f64((t - self.virtual_start).secs() / pace);
         if let Some(rest) = due.checked_sub(self.wall.elapsed()) {
             std::thread::sleep(rest);
         }
@@ -162,14 +163,14 @@ fn drive<R: Responder>(
     let pacer = Pacer {
         pace,
         wall: Instant::now(),
-        virtual_start: session.now_s(),
+        virtual_start: session.now(),
     };
     // Published on LSL, virtual time is held to LSL's clock before every
     // tick (`Session::step`, not every 64th tick here), so each event and
     // sample is handled just after its timestamp.
     let on_lsl = match (session.lsl_now(), pace) {
-        (Some(now), Some(pace)) => {
-            session.lsl_pace(pacer.virtual_start, now, pace);
+        (Some(_), Some(pace)) => {
+            session.lsl_pace(pace);
             true
         }
         _ => false,
@@ -184,7 +185,7 @@ fn drive<R: Responder>(
                 return Ok((session.outcome().interrupted_by(signal), session));
             }
             if !on_lsl {
-                pacer.wait(session.now_s());
+                pacer.wait(session.now());
             }
         }
     }

@@ -8,9 +8,18 @@
 //! ([`Clock`]): the same number the trial record keeps as `lsl_start_s`
 //! and `lsl_end_s`. The shell says how session time maps to LSL's clock:
 //! a paced simulated device's virtual time runs at its pace from the
-//! moment pacing starts ([`Session::lsl_pace`]); the window re-anchors at
-//! each frame; a port's loop clock is the system's monotonic clock, which
-//! is liblsl's ([`Session::publish`] maps it once).
+//! session's start ([`Session::lsl_pace`]); the window re-anchors at each
+//! frame; a port's loop clock is the system's monotonic clock, which is
+//! liblsl's ([`Session::publish`] maps it once).
+//!
+//! # Streams first (issue 42)
+//! Both streams are published before the session starts, and
+//! `--lsl-wait` waits for a reader on each before the first marker: with
+//! the simulated device at once ([`Session::publish`]); on a port at its
+//! first connected tick, which says who renders (before the session's log
+//! opens and its first input is handled). The device stream's first
+//! sample is at the session's start: the simulated device's state there
+//! (at rest), or a port's ticks queued while the session waited.
 
 use serde_json::{Map, Value};
 
@@ -19,11 +28,7 @@ use super::{Responder, Session, SessionError};
 use crate::kinds::{Action, Header, PlannedTrial, TrialRecord};
 use crate::lsl::{Clock, DeviceStream, Node, Publisher, Streaming};
 use crate::protocol::engine::{Answer, Input, RenderMode, Screen};
-
-/// How long a session that waits for a recorder (`--lsl-wait`) also waits
-/// for it to take the device stream, s: LabRecorder subscribes to the
-/// streams it records within a second of starting.
-const DEVICE_WAIT_S: f64 = 5.0;
+use crate::time::Time;
 
 /// What a session publishing on LSL keeps.
 pub(super) struct Tap {
@@ -41,6 +46,8 @@ pub(super) struct Tap {
     trial_start: Option<f64>,
     /// A `device_lost` was sent, and no `device_back` since.
     lost: bool,
+    /// How long to wait for readers when the streams open, s.
+    wait_s: f64,
 }
 
 /// A marker's fields: `event` first.
@@ -81,7 +88,12 @@ fn conditions<T: serde::Serialize>(spec: &T) -> Value {
 }
 
 impl Tap {
-    fn mark(&mut self, t: f64, event: &str, extra: impl FnOnce(&mut Map<String, Value>)) {
+    /// Whether both streams are open (their readers waited for).
+    pub(super) fn is_open(&self) -> bool {
+        self.publisher.is_open()
+    }
+
+    fn mark(&mut self, t: Time, event: &str, extra: impl FnOnce(&mut Map<String, Value>)) {
         let mut m = fields(event);
         extra(&mut m);
         self.publisher.marker(self.clock.at(t), m);
@@ -94,13 +106,29 @@ impl Tap {
 
 /// The device was lost (`true`, once it had answered) or is back: a
 /// `device_lost` or `device_back` marker at session time `t`, once each.
-pub(super) fn device_lost(tap: Option<&mut Tap>, t: f64, lost: bool) {
+pub(super) fn device_lost(tap: Option<&mut Tap>, t: Time, lost: bool) {
     if let Some(tap) = tap
         && tap.lost != lost
     {
         tap.lost = lost;
         tap.mark(t, if lost { "device_lost" } else { "device_back" }, |_| {});
     }
+}
+
+/// A device sample as the stream's channels: position, velocity, force,
+/// vibration, and the device's tick (on board).
+fn sample_values(s: &crate::device::DeviceSample, tick: Option<u32>) -> [f32; 5] {
+    #[expect(
+        clippy::cast_possible_truncation,
+        reason = "the stream is float32, as LSL's float channels are"
+    )]
+    [
+        s.x_m as f32,
+        s.v_m_s as f32,
+        s.force_n as f32,
+        s.vibration as f32,
+        tick.map_or(0.0, |t| t as f32),
+    ]
 }
 
 /// The device stream of a session whose device steps as `how`.
@@ -157,13 +185,12 @@ pub fn source_id(h: &Header) -> String {
 }
 
 impl<R: Responder> Session<R> {
-    /// Publishes this session on LSL with `lsl`: the marker stream now
-    /// (with a `session_start`, or `session_resume` and the trial it
-    /// resumes at), the device stream at the first device sample. Call
-    /// before the session is first fed.
+    /// Publishes this session on LSL with `lsl`. Call before the session
+    /// is first fed. With the simulated device both streams open now
+    /// ([`Session::lsl_open`]); on a port at its first connected tick.
     ///
     /// # Errors
-    /// liblsl made no outlet.
+    /// liblsl made no outlet, or its worker could not start.
     pub fn publish(&mut self, streaming: &Streaming) -> Result<(), SessionError> {
         let lsl = &streaming.lib;
         let header = self.log.header().clone();
@@ -181,17 +208,12 @@ impl<R: Responder> Session<R> {
                 ],
             ),
         ];
-        let publisher = Publisher::start(
-            lsl,
-            &name,
-            &format!("{source}/markers"),
-            &desc,
-            streaming.wait_s,
-        )
-        .map_err(|e| SessionError::Lsl(e.to_string()))?;
+        let publisher = Publisher::start(lsl, &name, &format!("{source}/markers"), &desc)
+            .map_err(|e| SessionError::Lsl(e.to_string()))?;
         let now = lsl.local_clock();
         // A port's ticks count from the loop's origin (session time
-        // `start_t`); the simulated device's time is anchored by its shell.
+        // `start_t`); the simulated device's time is anchored when its
+        // streams open.
         let (clock, per_frame) = match self.device.origin() {
             Some(origin) => (
                 Clock {
@@ -210,7 +232,7 @@ impl<R: Responder> Session<R> {
                 true,
             ),
         };
-        let mut tap = Tap {
+        self.lsl = Some(Box::new(Tap {
             publisher,
             clock,
             per_frame,
@@ -221,11 +243,8 @@ impl<R: Responder> Session<R> {
             in_trial: false,
             trial_start: None,
             lost: false,
-        };
-        // The simulated device's stream is known now: published before
-        // the session runs (a port's waits for its first tick, which says
-        // who renders), and before the first marker (liblsl creates an
-        // outlet under a lock its pushes wait for).
+            wait_s: streaming.wait_s,
+        }));
         if self.device.is_sim() {
             // It ticks at the rate of the model it renders: the plan's
             // (its fastest model's) is the stream's nominal rate.
@@ -233,14 +252,43 @@ impl<R: Responder> Session<R> {
                 rate_hz: self.loop_rate_hz,
                 ..self.row_render.1
             };
-            let stream = device_stream(&tap, how, &self.device_label);
-            // A recorder waited for subscribes to this stream too: waited
-            // for as well, so the session starts with both streams taken.
-            tap.publisher
-                .device(&stream, streaming.wait_s.min(DEVICE_WAIT_S));
+            self.lsl_open(how)?;
         }
-        // Stamped now: the stream starts here (a port's loop clock began
-        // earlier, and a recorder may have been waited for).
+        Ok(())
+    }
+
+    /// Opens both streams (module docs): publishes the device stream of a
+    /// device stepping as `how`, waits for a reader on each (at most
+    /// `--lsl-wait` in all), then sends `session_start` (or
+    /// `session_resume`). The simulated device's clock is anchored there,
+    /// and its state at that moment is the device stream's first sample;
+    /// a port's loop queues its ticks' samples from before the wait.
+    pub(super) fn lsl_open(&mut self, how: How) -> Result<(), SessionError> {
+        let header = self.log.header().clone();
+        let label = self.device_label.clone();
+        let Some(tap) = self.lsl.as_deref_mut() else {
+            return Ok(());
+        };
+        if tap.publisher.is_open() {
+            return Ok(());
+        }
+        let stream = device_stream(tap, how, &label);
+        let published = tap.publisher.device(&stream);
+        if published && let super::device::Device::Port(port) = &mut self.device {
+            port.publish(tap.publisher.sample_tap(tap.clock.lsl0));
+        }
+        tap.publisher
+            .open(tap.wait_s)
+            .map_err(|e| SessionError::Lsl(e.to_string()))?;
+        let now = tap.publisher.now();
+        if self.device.is_sim() {
+            tap.clock = Clock {
+                t0: self.t,
+                lsl0: now,
+                pace: tap.clock.pace,
+            };
+            tap.publisher.sample(now, sample_values(&self.sample, None));
+        }
         let mut m = fields(match self.resumed_at {
             Some(_) => "session_resume",
             None => "session_start",
@@ -252,18 +300,16 @@ impl<R: Responder> Session<R> {
         if let Some(at) = self.resumed_at {
             m.insert("at_trial".into(), at.into());
         }
-        let now = tap.publisher.now();
         tap.publisher.marker(now, m);
-        self.lsl = Some(Box::new(tap));
         Ok(())
     }
 
-    /// A headless shell paces the simulated device from now: session time
-    /// `t0` is LSL time `lsl0`, and session time runs `pace` times real
-    /// time.
-    pub fn lsl_pace(&mut self, t0: f64, lsl0: f64, pace: f64) {
+    /// A headless shell paces the simulated device: session time runs
+    /// `pace` times real time from the session's start on LSL's clock
+    /// (where its streams opened).
+    pub fn lsl_pace(&mut self, pace: f64) {
         if let Some(tap) = &mut self.lsl {
-            tap.clock = Clock { t0, lsl0, pace };
+            tap.clock.pace = pace;
             tap.per_frame = false;
         }
     }
@@ -279,7 +325,7 @@ impl<R: Responder> Session<R> {
         if tap.per_frame {
             return;
         }
-        let due = tap.clock.at(self.t + dt);
+        let due = tap.clock.at(self.t + *dt);
         let rest = due - tap.publisher.now();
         if rest > 0.0 {
             std::thread::sleep(std::time::Duration::from_secs_f64(rest));
@@ -310,7 +356,7 @@ impl<R: Responder> Session<R> {
 
     /// The window's frame reaches session time `end` now: the simulated
     /// device's samples of the frame are stamped back from now.
-    pub(super) fn lsl_frame(&mut self, end: f64) {
+    pub(super) fn lsl_frame(&mut self, end: Time) {
         if let Some(tap) = &mut self.lsl
             && tap.per_frame
         {
@@ -322,38 +368,16 @@ impl<R: Responder> Session<R> {
         }
     }
 
-    /// A device sample (after `observe` set it): opens the device stream
-    /// at the first, then queues it.
+    /// A simulated device's sample (after `observe` set it): queued for
+    /// the device stream (a port's loop queues its own).
     pub(super) fn lsl_sample(&mut self) {
         let Some(tap) = &mut self.lsl else { return };
-        if !tap.publisher.has_device() {
-            // A port's first connected tick: its stream is published now
-            // (the tick says who renders), and the haptic loop queues the
-            // samples from the next tick on, stamped where it reads them.
-            let stream = device_stream(tap, self.row_render.1, &self.device_label);
-            if tap.publisher.device(&stream, 0.0)
-                && let super::device::Device::Port(port) = &mut self.device
-            {
-                port.publish(tap.publisher.sample_tap(tap.clock.lsl0));
-            }
-        }
         if !self.device.is_sim() {
             return;
         }
-        let s = &self.sample;
-        #[expect(
-            clippy::cast_possible_truncation,
-            reason = "the stream is float32, as LSL's float channels are"
-        )]
-        let values = [
-            s.x_m as f32,
-            s.v_m_s as f32,
-            s.force_n as f32,
-            s.vibration as f32,
-            self.marks.device_tick.map_or(0.0, |t| t as f32),
-        ];
         let at = tap.clock.at(self.t);
-        tap.publisher.sample(at, values);
+        tap.publisher
+            .sample(at, sample_values(&self.sample, self.marks.device_tick));
     }
 
     /// An input about to reach the engine.
@@ -448,8 +472,8 @@ impl<R: Responder> Session<R> {
                 with_trial(m);
                 m.insert("active".into(), (*active).into());
             }),
-            Action::Show(Screen::Break { until_s }) => tap.mark(t, "break", |m| {
-                m.insert("duration_s".into(), (until_s - t).into());
+            Action::Show(Screen::Break { until }) => tap.mark(t, "break", |m| {
+                m.insert("duration_s".into(), (*until - t).secs().into());
             }),
             Action::Show(Screen::Instructions(_)) => tap.mark(t, "instructions", |_| {}),
             Action::Show(Screen::Reference { .. }) => tap.mark(t, "reference", |_| {}),

@@ -31,12 +31,18 @@
 //! stamped with its session time on LSL's clock, and each device sample
 //! goes to the device stream (a port's from its haptic loop's thread).
 //!
-//! # One session clock
-//! Session time `t` (s) starts at 0 for a new session and at the last
-//! logged trial's end when resuming; trial times and stream `t_s` are on it.
-//! The simulated device advances it by its step; a port's loop clock is only
-//! mapped onto it (`t = start + loop time`), so it never goes backwards
-//! across a resume.
+//! # One session clock, in whole ticks (issue 42)
+//! Session time `t` ([`Time`], whole nanoseconds) starts at 0 for a new
+//! session and at the last logged trial's end when resuming; trial times
+//! and stream `t_s` are on it. The simulated device advances it by its
+//! step, a whole number of nanoseconds (200,000 at 5 kHz), so every time
+//! is a whole number of ticks and every deadline an integer: a trial lasts
+//! the same number of ticks wherever it starts, and a resumed session
+//! gives the data an uninterrupted one gives. A port's loop clock is only
+//! mapped onto it (`t = start + loop time`, to the nearest tick of the
+//! device's rate), so it never goes backwards across a resume. The window
+//! steps the simulated device by whole ticks and carries the rest of a
+//! frame to the next.
 //!
 //! # One lost-device rule
 //! A device that stops answering at any point of a trial (stimulus,
@@ -94,6 +100,7 @@ use crate::kinds::{Action, Engine, Header, LogLine, ReadLog, Registry};
 use crate::protocol::engine::TrialSource;
 use crate::protocol::engine::{Input, RenderMode};
 use crate::results::{ResultsDir, ResultsError};
+use crate::time::Time;
 use device::Device;
 use renders::{How, Renders};
 use view::Trace;
@@ -171,22 +178,25 @@ pub struct Session<R: Responder> {
     device_label: String,
     responder: R,
     sample: DeviceSample,
-    t: f64,
-    start_t: f64,
+    t: Time,
+    start_t: Time,
     pending: VecDeque<Pending>,
     timeout_queued: bool,
     /// The engine's [`Engine::poll_timeout`], kept after each call that
     /// can change it (`handle`, `handle_timeout`) so ticks need not ask.
-    due: Option<f64>,
+    due: Option<Time>,
     phase: Phase,
     view: View,
     trace: Option<Trace>,
-    lost_since: Option<f64>,
+    lost_since: Option<Time>,
     resumed_at: Option<usize>,
     records: usize,
     last_record: Option<usize>,
     done_this_run: usize,
     wall: Option<f64>,
+    /// Session time the window's frames have given the simulated device
+    /// and its whole ticks have not yet taken ([`Session::advance`]).
+    owed: Time,
     renders: Renders,
     /// The render in effect at the last device sample, and how it was
     /// stepped.
@@ -283,7 +293,7 @@ impl<R: Responder> Session<R> {
         Session::assemble(
             log,
             engine,
-            (0.0, None),
+            (Time::ZERO, None),
             rate_hz,
             &DeviceChoice::Simulated,
             responder,
@@ -309,11 +319,13 @@ impl<R: Responder> Session<R> {
     }
 
     /// Starts the device and the session around `log` and `engine`, at
-    /// session time `start_t` (`resumed_at`: the trial a resume starts at).
+    /// session time `start_t` (`resumed_at`: the trial a resume starts at),
+    /// put on the tick grid of the plan's rate (a log of format 1 ended
+    /// its trials at float sums, a nanosecond or so off its ticks).
     fn assemble(
         mut log: Log,
         engine: Engine,
-        (start_t, resumed_at): (f64, Option<usize>),
+        (start_t, resumed_at): (Time, Option<usize>),
         rate_hz: f64,
         device: &DeviceChoice,
         responder: R,
@@ -332,6 +344,7 @@ impl<R: Responder> Session<R> {
             ramp_s: 0.0,
             force_limit_n: 0.0,
         });
+        let start_t = start_t.ceil_to(Time::period(rate_hz));
         Ok(Session {
             engine,
             log,
@@ -353,6 +366,7 @@ impl<R: Responder> Session<R> {
             last_record: None,
             done_this_run: 0,
             wall: None,
+            owed: Time::ZERO,
             renders: Renders::default(),
             marks: RowMarks::default(),
             sim_selected: false,
@@ -393,8 +407,8 @@ impl<R: Responder> Session<R> {
             return;
         };
         let dt = *dt;
-        let force = self.responder.hand_force(self.t, dt, &self.sample);
-        self.sample = device.step(dt, force);
+        let force = self.responder.hand_force(self.t, dt.secs(), &self.sample);
+        self.sample = device.step(dt.secs(), force);
         self.marks = RowMarks {
             selected: std::mem::take(&mut self.sim_selected),
             watchdog: false,
@@ -416,7 +430,11 @@ impl<R: Responder> Session<R> {
         while let Device::Port(port) = &mut self.device
             && let Some((tick, pressed)) = port.recv()
         {
-            self.t = self.start_t + tick.now_s;
+            // The loop's clock on the session's, to the nearest tick of
+            // the device's rate, never going back.
+            let period = Time::period(port.how(&tick).rate_hz);
+            let at = self.start_t + Time::from_secs_saturating(tick.now_s).round_to(period);
+            self.t = self.t.max(at);
             if tick.link != LinkState::Connected {
                 // The abort takes effect now: ticks read after this one
                 // (the device back, started afresh) are no part of the
@@ -428,13 +446,30 @@ impl<R: Responder> Session<R> {
             if self.lost_since.take().is_some() {
                 lsl::device_lost(self.lsl.as_deref_mut(), self.t, false);
             }
+            let how = port.how(&tick);
             if matches!(self.log, Log::Planned { .. }) {
+                if self.lsl.as_ref().is_some_and(|tap| !tap.is_open()) {
+                    // Its streams open first (issue 42), and may have
+                    // waited for a recorder: the session starts at the
+                    // next tick, not on the ticks queued meanwhile.
+                    self.lsl_open(how).map_err(|e| ResultsError::Io {
+                        path: String::new(),
+                        source: std::io::Error::other(e.to_string()),
+                    })?;
+                    if let Device::Port(port) = &mut self.device {
+                        port.skip_queued();
+                    }
+                    continue;
+                }
                 // The session starts (its files are written) once the
                 // device answers.
                 self.log.open()?;
             }
+            let Device::Port(port) = &mut self.device else {
+                break;
+            };
             self.sample = tick.sample();
-            self.row_render = (tick.render, port.how(&tick));
+            self.row_render = (tick.render, how);
             self.marks = RowMarks {
                 selected: tick.selected,
                 watchdog: tick.watchdog,
@@ -456,8 +491,9 @@ impl<R: Responder> Session<R> {
 
     /// Advances the session to the window's frame at wall-clock time
     /// `wall_s` (any monotonic clock, s): the simulated device steps by the
-    /// frame's time (at most [`MAX_FRAME_STEP_S`]; not while paused), a
-    /// port's ticks are read.
+    /// frame's time (at most [`MAX_FRAME_STEP_S`]; not while paused) in
+    /// whole ticks, the rest carried to the next frame; a port's ticks are
+    /// read.
     ///
     /// # Errors
     /// I/O on the log or CSV.
@@ -469,20 +505,28 @@ impl<R: Responder> Session<R> {
         if !matches!(self.phase, Phase::Running | Phase::Paused) {
             return Ok(());
         }
-        let end = self.t + step;
+        let most = Time::from_secs_saturating(MAX_FRAME_STEP_S);
+        if self.phase == Phase::Running {
+            self.owed = (self.owed + Time::from_secs_saturating(step)).min(most);
+        }
         if self.device.is_sim() {
-            self.lsl_frame(end);
+            self.lsl_frame(self.t + self.owed);
         }
         loop {
             self.settle()?;
             match &self.device {
-                Device::Sim { dt, .. }
-                    if self.phase == Phase::Running && self.t + dt <= end + 1e-12 =>
-                {
+                Device::Sim { dt, .. } if self.phase == Phase::Running && *dt <= self.owed => {
+                    self.owed = self.owed - *dt;
                     self.tick_sim();
                 }
                 Device::Port(_) => return self.poll_device(),
-                _ => return Ok(()),
+                _ => {
+                    if self.phase != Phase::Running {
+                        // Paused: the frame's time is not owed later.
+                        self.owed = Time::ZERO;
+                    }
+                    return Ok(());
+                }
             }
         }
     }
@@ -495,13 +539,14 @@ impl<R: Responder> Session<R> {
         {
             let (render, how) = self.row_render;
             let index = self.renders.row(render, how);
-            open.streams.push(self.t, &self.sample, index, self.marks);
+            open.streams
+                .push(self.t.secs(), &self.sample, index, self.marks);
         }
         if self.lsl.is_some() {
             self.lsl_sample();
         }
         if let Some(trace) = &mut self.trace {
-            trace.observe(self.t, &self.sample);
+            trace.observe(self.t.secs(), &self.sample);
         }
         let reaction = self.responder.decide(self.t, &self.sample);
         self.apply(reaction);

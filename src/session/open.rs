@@ -18,6 +18,7 @@ use crate::results::{
     LOG_FORMAT, ResultsDir, ResultsError, SessionFiles, SessionLog, data_csv, kinds_present,
     read_log, replace_file, sha256_hex, write_dataset_description,
 };
+use crate::time::Time;
 
 /// Where a session renders friction.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -237,13 +238,13 @@ impl Planned {
         }
     }
 
-    /// Session time where this run starts, s: 0 for a new session, the last
+    /// Session time where this run starts: 0 for a new session, the last
     /// logged trial's end for a resumed one (the session clock goes on).
     #[must_use]
-    pub fn start_time(&self) -> f64 {
+    pub fn start_time(&self) -> Time {
         match &self.opening {
-            Opening::Resume { read, .. } => read.trials.last().map_or(0.0, |r| r.ended_s),
-            Opening::New { .. } => 0.0,
+            Opening::Resume { read, .. } => read.trials.last().map_or(Time::ZERO, |r| r.ended_s),
+            Opening::New { .. } => Time::ZERO,
         }
     }
 
@@ -280,6 +281,7 @@ impl Planned {
                 log.append(&LogLine::Resumed {
                     at_trial: read.next_trial(),
                     torn_bytes,
+                    format: (read.header.format != LOG_FORMAT).then(|| LOG_FORMAT.to_owned()),
                 })?;
                 // The CSV follows the log: a kill between a trial's log
                 // line and its CSV rewrite left the CSV a trial short,

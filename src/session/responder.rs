@@ -9,6 +9,7 @@ use crate::kinds::{Action, PlannedTrial};
 pub use crate::participant::Reaction;
 use crate::participant::SimParticipant;
 use crate::results::ResultsDir;
+use crate::time::Time;
 
 use super::{Session, SessionError, SessionRequest};
 
@@ -18,16 +19,17 @@ pub trait Responder {
     const LABEL: &'static str;
     /// Mass of the hand on the device, kg.
     fn hand_mass_kg(&self) -> f64;
-    /// Reacts to an engine action; `trial` is the engine's current trial.
-    fn on_action(&mut self, now_s: f64, action: &Action, trial: Option<&PlannedTrial>) -> Reaction;
+    /// Reacts to an engine action at session time `now`; `trial` is the
+    /// engine's current trial.
+    fn on_action(&mut self, now: Time, action: &Action, trial: Option<&PlannedTrial>) -> Reaction;
     /// Reacts to a device sample (after each tick).
-    fn decide(&mut self, now_s: f64, sample: &DeviceSample) -> Reaction;
+    fn decide(&mut self, now: Time, sample: &DeviceSample) -> Reaction;
     /// The hand's reference and impedance now (`None`: no hand on the
     /// device).
-    fn drive(&self, now_s: f64, sample: &DeviceSample) -> Option<HandDrive>;
+    fn drive(&self, now: Time, sample: &DeviceSample) -> Option<HandDrive>;
     /// The force the hand applies to the simulated device over the next
     /// `dt`, N.
-    fn hand_force(&mut self, now_s: f64, dt: f64, sample: &DeviceSample) -> f64;
+    fn hand_force(&mut self, now: Time, dt: f64, sample: &DeviceSample) -> f64;
 }
 
 impl Responder for SimParticipant {
@@ -37,20 +39,20 @@ impl Responder for SimParticipant {
         self.traits().hand_mass_kg
     }
 
-    fn on_action(&mut self, now_s: f64, action: &Action, trial: Option<&PlannedTrial>) -> Reaction {
-        SimParticipant::on_action(self, now_s, action, trial)
+    fn on_action(&mut self, now: Time, action: &Action, trial: Option<&PlannedTrial>) -> Reaction {
+        SimParticipant::on_action(self, now, action, trial)
     }
 
-    fn decide(&mut self, now_s: f64, sample: &DeviceSample) -> Reaction {
-        SimParticipant::decide(self, now_s, sample)
+    fn decide(&mut self, now: Time, sample: &DeviceSample) -> Reaction {
+        SimParticipant::decide(self, now, sample)
     }
 
-    fn drive(&self, now_s: f64, sample: &DeviceSample) -> Option<HandDrive> {
-        Some(SimParticipant::drive(self, now_s, sample))
+    fn drive(&self, now: Time, sample: &DeviceSample) -> Option<HandDrive> {
+        Some(SimParticipant::drive(self, now, sample))
     }
 
-    fn hand_force(&mut self, now_s: f64, dt: f64, sample: &DeviceSample) -> f64 {
-        SimParticipant::hand_force(self, now_s, dt, sample)
+    fn hand_force(&mut self, now: Time, dt: f64, sample: &DeviceSample) -> f64 {
+        SimParticipant::hand_force(self, now, dt, sample)
     }
 }
 
@@ -90,15 +92,15 @@ impl Responder for Person {
         MOUSE_HAND_MASS_KG
     }
 
-    fn on_action(&mut self, _: f64, _: &Action, _: Option<&PlannedTrial>) -> Reaction {
+    fn on_action(&mut self, _: Time, _: &Action, _: Option<&PlannedTrial>) -> Reaction {
         Reaction::default()
     }
 
-    fn decide(&mut self, _: f64, _: &DeviceSample) -> Reaction {
+    fn decide(&mut self, _: Time, _: &DeviceSample) -> Reaction {
         Reaction::default()
     }
 
-    fn drive(&self, _: f64, sample: &DeviceSample) -> Option<HandDrive> {
+    fn drive(&self, _: Time, sample: &DeviceSample) -> Option<HandDrive> {
         Some(match self.hand_target {
             Some(x_m) => HandDrive {
                 x_m,
@@ -110,8 +112,8 @@ impl Responder for Person {
         })
     }
 
-    fn hand_force(&mut self, now_s: f64, dt: f64, sample: &DeviceSample) -> f64 {
-        let d = self.drive(now_s, sample).unwrap_or_default();
+    fn hand_force(&mut self, now: Time, dt: f64, sample: &DeviceSample) -> f64 {
+        let d = self.drive(now, sample).unwrap_or_default();
         self.hand.force(&d, sample.x_m, sample.v_m_s, dt)
     }
 }

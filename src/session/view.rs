@@ -159,7 +159,7 @@ impl<R: Responder> Session<R> {
     /// How long the device has not answered, s (None while it answers).
     #[must_use]
     pub fn lost_for_s(&self) -> Option<f64> {
-        self.lost_since.map(|since| self.t - since)
+        self.lost_since.map(|since| (self.t - since).secs())
     }
 
     /// Records written by this run, and the planned index of the last.
@@ -215,6 +215,12 @@ impl<R: Responder> Session<R> {
     /// Session time, s.
     #[must_use]
     pub fn now_s(&self) -> f64 {
+        self.t.secs()
+    }
+
+    /// Session time, whole nanoseconds.
+    #[must_use]
+    pub fn now(&self) -> crate::time::Time {
         self.t
     }
 
@@ -244,8 +250,9 @@ impl<R: Responder> Session<R> {
         let index = self.engine.trial_index();
         let total = self.engine.planned_trials().unwrap_or(index);
         let left = total.saturating_sub(index);
-        let remaining_s = (self.done_this_run > 0)
-            .then(|| (self.t - self.start_t) / count_f64(self.done_this_run) * count_f64(left));
+        let remaining_s = (self.done_this_run > 0).then(|| {
+            (self.t - self.start_t).secs() / count_f64(self.done_this_run) * count_f64(left)
+        });
         Progress {
             trial: (index + 1).min(total),
             total,
@@ -254,7 +261,7 @@ impl<R: Responder> Session<R> {
                 .trial()
                 .map(|t| t.block.clone())
                 .unwrap_or_default(),
-            elapsed_s: self.t,
+            elapsed_s: self.t.secs(),
             remaining_s: if self.phase == Phase::Finished {
                 Some(0.0)
             } else {
@@ -292,7 +299,7 @@ impl<R: Responder> Session<R> {
             aborted,
             resumed_at: self.resumed_at,
             torn_bytes,
-            simulated_s: self.t - self.start_t,
+            simulated_s: (self.t - self.start_t).secs(),
             csv: self.csv().to_owned(),
             log: self.log_path().to_owned(),
             participant: self.participant().to_owned(),

@@ -214,6 +214,24 @@ pub fn pylsl() -> Option<(std::path::PathBuf, std::path::PathBuf)> {
     python.exists().then_some((python, lib))
 }
 
+/// LabRecorder's recording code and pyxdf beside pylsl in `python`'s
+/// environment: true, or a skip (outside CI) or a failure (under CI).
+pub fn need_labrecorder(python: &std::path::Path) -> bool {
+    let found = std::process::Command::new(python)
+        .args(["-c", "import labrecorder, pyxdf"])
+        .stderr(std::process::Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(
+        found || std::env::var_os("CI").is_none(),
+        "labrecorder and pyxdf are not installed in target/lsl-venv: .ci/run installs them"
+    );
+    if !found {
+        eprintln!("skipped: labrecorder and pyxdf are not installed in target/lsl-venv");
+    }
+    found
+}
+
 /// pylsl, or a skip (outside CI) or a failure (under CI).
 pub fn need_pylsl() -> Option<(std::path::PathBuf, std::path::PathBuf)> {
     let found = pylsl();
@@ -225,4 +243,19 @@ pub fn need_pylsl() -> Option<(std::path::PathBuf, std::path::PathBuf)> {
         eprintln!("skipped: pylsl is not installed in target/lsl-venv (.ci/run installs it)");
     }
     found
+}
+
+/// Every shipped protocol file (`protocols/*.json` but the schema), sorted.
+pub fn shipped_protocols() -> Vec<std::path::PathBuf> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("protocols");
+    let mut protocols: Vec<std::path::PathBuf> = std::fs::read_dir(root)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| {
+            p.extension().is_some_and(|x| x == "json")
+                && !p.to_string_lossy().ends_with(".schema.json")
+        })
+        .collect();
+    protocols.sort();
+    protocols
 }

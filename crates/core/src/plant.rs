@@ -99,6 +99,7 @@ pub struct SimDevice {
     rendered: Option<Friction>,
     rendered_params: Option<ModelParams>,
     physical: Option<Friction>,
+    physical_params: Option<ModelParams>,
     /// `dt` for which the filter was computed, the velocity filter's
     /// coefficient `exp(-2 pi f_c dt)`, and `1 / dt`.
     filter: (f64, f64, f64),
@@ -131,6 +132,7 @@ impl SimDevice {
             rendered: None,
             rendered_params: None,
             physical: None,
+            physical_params: None,
             filter: (0.0, 0.0, 0.0),
             inv_mass: 1.0 / mass_kg,
             inv_encoder: 1.0 / p.encoder_m,
@@ -147,6 +149,8 @@ impl SimDevice {
         self.v_estimate = 0.0;
         let params = self.rendered_params.take();
         self.set_model(params.as_ref());
+        let physical = self.physical_params.take();
+        self.set_physical(physical.as_ref());
     }
 
     /// Renders `model` from now on (`None`: nothing). An invalid model renders
@@ -159,6 +163,7 @@ impl SimDevice {
 
     /// The physical friction of a condition from now on (`None`: none).
     pub fn set_physical(&mut self, model: Option<&ModelParams>) {
+        self.physical_params = model.cloned();
         self.physical = model
             .and_then(|m| Friction::new(m, ForceLimit::new(1e3).unwrap_or_default(), self.x).ok());
     }

@@ -273,9 +273,14 @@ impl Staircase {
         }
         self.direction = Some(direction);
         let down = rule.down_step(self.reversals.len());
+        // On the design's decimals: a track that steps down and back up
+        // returns to the very value it left (issue 42).
         let moved = match direction {
-            Direction::Down => x - down,
-            Direction::Up => x + rule.up_ratio * down,
+            Direction::Down => crate::decimal::sub(x, down),
+            Direction::Up => {
+                use crate::decimal::Dec;
+                (Dec::of(x) + Dec::of(rule.up_ratio) * Dec::of(down)).to_f64()
+            }
         };
         // Not f64::clamp, which panics on min > max or NaN bounds.
         self.x = moved.max(rule.min).min(rule.max);

@@ -8,7 +8,10 @@
 //! - [`adaptive`]: the adaptive methods that choose each trial's stimulus
 //!   from the answers so far: transformed up-down staircases (1-up-n-down,
 //!   with Kaernbach's weighted steps) and QUEST+ (Watson 2017).
+//! - [`decimal`]: values derived from a design's decimals, computed on
+//!   those decimals (issue 42).
 
 pub mod adaptive;
+pub mod decimal;
 pub mod fit;
 pub mod psychometric;

@@ -33,6 +33,7 @@ use std::sync::Arc;
 use frictionlab_psychophysics::adaptive::{
     QuestPlus, QuestPlusSpec, QuestPlusTable, Staircase, StaircaseRule, kaernbach_up_ratio,
 };
+use frictionlab_psychophysics::decimal::Dec;
 use frictionlab_psychophysics::psychometric::Shape;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -43,12 +44,13 @@ use serde_json::Value;
 use crate::analysis::{AnalysisEntry, KindAnalysis, Scope, Section, designs_of};
 use crate::friction::ModelParams;
 use crate::kinds::paired::{Compare, Paired, PairedData, PairedTrial};
-use crate::protocol::check::Checks;
+use crate::protocol::check::{Checks, MAX_TRIALS};
 use crate::protocol::engine::{Action, Choice, Input, Status, TrialRecord, TrialSource};
 use crate::protocol::kind::{Holds, Kinds, LiveTrial, Next, StudyKind};
 use crate::protocol::load::Walk;
 use crate::protocol::plan::PlannedTrial;
 use crate::protocol::{Condition, Protocol};
+use crate::time::Time;
 
 pub mod analysis;
 pub mod report;
@@ -68,12 +70,14 @@ pub enum Comparison {
 }
 
 impl Comparison {
-    /// The comparison's value for reference `level` and difference `x`.
+    /// The comparison's value for reference `level` and difference `x`,
+    /// on their decimals (`0.7 (1 + 0.15)` is `0.805`).
     #[must_use]
     pub fn value(self, level: f64, x: f64) -> f64 {
+        let (level, x) = (Dec::of(level), Dec::of(x));
         match self {
-            Comparison::Ratio => level * (1.0 + x),
-            Comparison::Offset => level + x,
+            Comparison::Ratio => (level * (Dec::of(1.0) + x)).to_f64(),
+            Comparison::Offset => (level + x).to_f64(),
         }
     }
 
@@ -132,17 +136,17 @@ impl Grid {
                 count,
                 spacing,
             } => {
-                let n = (*count).clamp(1, 10_000);
+                let n = (*count).clamp(1, MAX_GRID);
                 #[expect(clippy::cast_precision_loss, reason = "a small count")]
                 let at = |i: usize| {
-                    let f = if n == 1 {
-                        0.0
-                    } else {
-                        i as f64 / (n - 1) as f64
-                    };
+                    let (i, last) = (i as f64, n.saturating_sub(1).max(1) as f64);
                     match spacing {
-                        Spacing::Linear => from + (to - from) * f,
-                        Spacing::Log => (from.ln() + (to.ln() - from.ln()) * f).exp(),
+                        // On the decimals: 0 to 1 in 11 is 0, 0.1, ..., 1.
+                        Spacing::Linear => {
+                            let (from, to) = (Dec::of(*from), Dec::of(*to));
+                            (from + (to - from) * Dec::of(i) / Dec::of(last)).to_f64()
+                        }
+                        Spacing::Log => (from.ln() + (to.ln() - from.ln()) * (i / last)).exp(),
                     }
                 };
                 (0..n).map(at).collect()
@@ -391,6 +395,45 @@ fn method_range(method: &Method, c: &mut Checks) -> (f64, f64) {
     }
 }
 
+/// The most points a grid's range may have.
+pub const MAX_GRID: usize = 10_000;
+
+/// What the method's fields make grow, bounded (issue 42): a grid's
+/// points ([`MAX_GRID`]), and the session's trials, `levels` tracks of at
+/// most `max_trials` (QUEST+) or `stop_trials` (a staircase, when set; one
+/// stopped by reversals alone ends when its answers say).
+fn method_size(method: &Method, levels: u64, c: &mut Checks) {
+    let most = match method {
+        Method::QuestPlus(q) => {
+            for (name, grid) in [
+                ("stimuli", &q.stimuli),
+                ("thresholds", &q.thresholds),
+                ("slopes", &q.slopes),
+                ("lapses", &q.lapses),
+            ] {
+                if let Grid::Range { count, .. } = grid {
+                    c.at_most(
+                        &format!("method.{name}.count"),
+                        "the grid's points",
+                        *count as u64,
+                        MAX_GRID as u64,
+                    );
+                }
+            }
+            Some(("method.max_trials", q.max_trials))
+        }
+        Method::Staircase(s) => s.stop_trials.map(|n| ("method.stop_trials", n)),
+    };
+    if let Some((path, per_track)) = most {
+        c.at_most(
+            path,
+            "the session's trials (levels x trials per track)",
+            levels.saturating_mul(u64::from(per_track)),
+            MAX_TRIALS,
+        );
+    }
+}
+
 impl StudyKind for Discrimination {
     type Design = DiscriminationDesign;
     type Trial = DiscriminationTrial;
@@ -475,7 +518,8 @@ impl StudyKind for Discrimination {
     }
 
     fn check(d: &DiscriminationDesign, c: &mut Checks) {
-        c.positive("exploration_s", d.exploration_s);
+        c.positive_duration("exploration_s", d.exploration_s);
+        method_size(&d.method, d.levels.len() as u64, c);
         if d.question.trim().is_empty() {
             c.err("question", "the participant needs a question");
         }
@@ -555,6 +599,12 @@ impl StudyKind for Discrimination {
         }
     }
 
+    /// None: the tracks make their trials (bounded by
+    /// [`method_size`]).
+    fn trials_per_repetition(_: &DiscriminationDesign) -> u64 {
+        0
+    }
+
     fn source<K: Holds<Self>>(
         _protocol: &Protocol<K>,
         design: &DiscriminationDesign,
@@ -575,7 +625,7 @@ impl StudyKind for Discrimination {
 
     fn start<K: Kinds>(
         t: &DiscriminationTrial,
-        now: f64,
+        now: Time,
         out: &mut VecDeque<Action<K>>,
     ) -> TwoIntervals {
         TwoIntervals {
@@ -601,24 +651,24 @@ impl StudyKind for Discrimination {
 impl LiveTrial for TwoIntervals {
     type Data = DiscriminationData;
 
-    fn timeout(&self) -> Option<f64> {
+    fn timeout(&self) -> Option<Time> {
         self.compare.timeout()
     }
 
-    fn on_timeout<K: Kinds>(&mut self, now: f64, out: &mut VecDeque<Action<K>>) -> Next {
+    fn on_timeout<K: Kinds>(&mut self, now: Time, out: &mut VecDeque<Action<K>>) -> Next {
         self.compare.on_timeout(now, out)
     }
 
     fn on_input<K: Kinds>(
         &mut self,
-        now: f64,
+        now: Time,
         input: Input,
         out: &mut VecDeque<Action<K>>,
     ) -> Next {
         self.compare.on_input(now, input, out)
     }
 
-    fn data(&self, started: f64, now: f64, completed: bool) -> DiscriminationData {
+    fn data(&self, started: Time, now: Time, completed: bool) -> DiscriminationData {
         let answer = self.compare.data(started, now, completed);
         let correct = answer
             .choice

@@ -13,6 +13,7 @@
 
 use std::collections::VecDeque;
 
+use frictionlab_psychophysics::decimal::{self, Dec};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
@@ -23,6 +24,7 @@ use crate::protocol::check::Checks;
 use crate::protocol::engine::{Action, Input, Screen};
 use crate::protocol::kind::{Block, Holds, Kinds, LiveTrial, Next, StudyKind};
 use crate::protocol::load::{Walk, join};
+use crate::time::Time;
 
 pub mod analysis;
 pub mod report;
@@ -122,7 +124,7 @@ impl FittsDesign {
     #[must_use]
     pub fn effective_width(&self, width_m: f64) -> f64 {
         match self.tolerance {
-            Tolerance::WidthMinusCursor => width_m - self.cursor_m,
+            Tolerance::WidthMinusCursor => decimal::sub(width_m, self.cursor_m),
             Tolerance::Width => width_m,
         }
     }
@@ -130,10 +132,16 @@ impl FittsDesign {
     /// Index of difficulty of a level, bits.
     #[must_use]
     pub fn id_bits(&self, level: FittsLevel) -> f64 {
-        let w = self.effective_width(level.width_m);
+        // The ratio on the design's decimals, so levels of one ratio have
+        // one ID (issue 42).
+        let (a, w) = (Dec::of(level.amplitude_m), Dec::of(level.width_m));
+        let w = match self.tolerance {
+            Tolerance::WidthMinusCursor => w - Dec::of(self.cursor_m),
+            Tolerance::Width => w,
+        };
         match self.id_formula {
-            IdFormula::Shannon => (level.amplitude_m / w + 1.0).log2(),
-            IdFormula::Fitts => (2.0 * level.amplitude_m / w).log2(),
+            IdFormula::Shannon => (a / w + Dec::of(1.0)).to_f64().log2(),
+            IdFormula::Fitts => (Dec::of(2.0) * a / w).to_f64().log2(),
         }
     }
 }
@@ -189,7 +197,8 @@ pub struct FittsData {
     pub errors: u32,
     /// Mean error size, m (None without errors).
     pub mean_error_m: Option<f64>,
-    /// Session time of each hit, s.
+    /// Time of each hit from the trial's start, s (a whole number of
+    /// ticks; session time in a log of format 1).
     pub tap_times_s: Vec<f64>,
     /// Cursor position of each hit, m.
     pub tap_x_m: Vec<f64>,
@@ -197,8 +206,9 @@ pub struct FittsData {
     pub target_x_m: Vec<f64>,
     /// Cursor position of each miss, m.
     pub miss_x_m: Vec<f64>,
-    /// Session time of every click, hits and misses in order, s (empty in
-    /// logs written before these fields existed).
+    /// Time of every click from the trial's start, hits and misses in
+    /// order, s (session time in a log of format 1; empty in logs written
+    /// before these fields existed).
     #[serde(default)]
     pub click_times_s: Vec<f64>,
     /// Cursor position of every click, m.
@@ -310,7 +320,7 @@ impl StudyKind for Fitts {
 
     fn check(d: &FittsDesign, c: &mut Checks) {
         c.positive("cursor_m", d.cursor_m);
-        c.positive("timeout_s", d.timeout_s);
+        c.positive_duration("timeout_s", d.timeout_s);
         if d.taps < 2 {
             c.err(
                 "taps",
@@ -363,6 +373,18 @@ impl StudyKind for Fitts {
                 );
             }
         }
+    }
+
+    fn trials_per_repetition(d: &FittsDesign) -> u64 {
+        let levels = d.levels.len() as u64;
+        let practice_levels = if d.practice_levels.is_empty() {
+            levels
+        } else {
+            d.practice_levels.len() as u64
+        };
+        (d.practice.len() as u64)
+            .saturating_mul(practice_levels)
+            .saturating_add((d.conditions.len() as u64).saturating_mul(levels))
     }
 
     /// A `practice` block (if any: the practice conditions at
@@ -427,7 +449,7 @@ impl StudyKind for Fitts {
         t.model.loop_rate_hz()
     }
 
-    fn start<K: Kinds>(trial: &FittsTrial, now: f64, out: &mut VecDeque<Action<K>>) -> Tapping {
+    fn start<K: Kinds>(trial: &FittsTrial, now: Time, out: &mut VecDeque<Action<K>>) -> Tapping {
         Tapping::begin(trial, now, out)
     }
 
@@ -467,8 +489,10 @@ pub struct Tapping {
     trial: FittsTrial,
     lit: usize,
     centres: [f64; 2],
-    deadline: f64,
-    times: Vec<f64>,
+    started: Time,
+    deadline: Time,
+    /// Each click's time from the trial's start.
+    times: Vec<Time>,
     x: Vec<f64>,
     target: Vec<f64>,
     hit: Vec<bool>,
@@ -477,13 +501,14 @@ pub struct Tapping {
 impl Tapping {
     /// Sets the condition's physical friction, renders its model and lights
     /// the target at `-A/2`.
-    fn begin<K: Kinds>(trial: &FittsTrial, now: f64, out: &mut VecDeque<Action<K>>) -> Self {
+    fn begin<K: Kinds>(trial: &FittsTrial, now: Time, out: &mut VecDeque<Action<K>>) -> Self {
         let a = trial.amplitude_m;
         let t = Tapping {
             trial: trial.clone(),
             lit: 0,
             centres: [-a / 2.0, a / 2.0],
-            deadline: now + trial.timeout_s,
+            started: now,
+            deadline: now + Time::from_secs_saturating(trial.timeout_s),
             times: Vec::new(),
             x: Vec::new(),
             target: Vec::new(),
@@ -506,12 +531,12 @@ impl Tapping {
         })
     }
 
-    fn click<K: Kinds>(&mut self, now: f64, x: f64, out: &mut VecDeque<Action<K>>) -> Next {
+    fn click<K: Kinds>(&mut self, now: Time, x: f64, out: &mut VecDeque<Action<K>>) -> Next {
         let half = self.trial.effective_width_m / 2.0;
         let centre = self.centres[self.lit];
         let distance = (x - centre).abs();
         let hit = distance <= half;
-        self.times.push(now);
+        self.times.push(now - self.started);
         self.x.push(x);
         self.target.push(centre);
         self.hit.push(hit);
@@ -529,17 +554,17 @@ impl Tapping {
 impl LiveTrial for Tapping {
     type Data = FittsData;
 
-    fn timeout(&self) -> Option<f64> {
+    fn timeout(&self) -> Option<Time> {
         Some(self.deadline)
     }
 
-    fn on_timeout<K: Kinds>(&mut self, _now: f64, _out: &mut VecDeque<Action<K>>) -> Next {
+    fn on_timeout<K: Kinds>(&mut self, _now: Time, _out: &mut VecDeque<Action<K>>) -> Next {
         Next::Finish(Some("timeout".into()))
     }
 
     fn on_input<K: Kinds>(
         &mut self,
-        now: f64,
+        now: Time,
         input: Input,
         out: &mut VecDeque<Action<K>>,
     ) -> Next {
@@ -549,7 +574,7 @@ impl LiveTrial for Tapping {
         }
     }
 
-    fn data(&self, _started: f64, _now: f64, completed: bool) -> FittsData {
+    fn data(&self, _started: Time, _now: Time, completed: bool) -> FittsData {
         let g = &self.trial;
         let of = |hit: bool, v: &[f64]| -> Vec<f64> {
             v.iter()
@@ -558,7 +583,14 @@ impl LiveTrial for Tapping {
                 .map(|(&v, _)| v)
                 .collect()
         };
-        let tap_times = of(true, &self.times);
+        let taps: Vec<Time> = self
+            .times
+            .iter()
+            .zip(&self.hit)
+            .filter(|&(_, &h)| h)
+            .map(|(&t, _)| t)
+            .collect();
+        let tap_times: Vec<f64> = taps.iter().map(|t| t.secs()).collect();
         let miss_x = of(false, &self.x);
         let half = g.effective_width_m / 2.0;
         let miss_size: Vec<f64> = miss_x
@@ -574,8 +606,8 @@ impl LiveTrial for Tapping {
             cursor_m: g.cursor_m,
             effective_width_m: g.effective_width_m,
             id_bits: g.id_bits,
-            completion_time_s: match (tap_times.first(), tap_times.last()) {
-                (Some(a), Some(b)) if completed => Some(b - a),
+            completion_time_s: match (taps.first(), taps.last()) {
+                (Some(&a), Some(&b)) if completed => Some((b - a).secs()),
                 _ => None,
             },
             taps: u32::try_from(tap_times.len()).unwrap_or(u32::MAX),
@@ -585,7 +617,7 @@ impl LiveTrial for Tapping {
             target_x_m: of(true, &self.target),
             tap_times_s: tap_times,
             miss_x_m: miss_x,
-            click_times_s: self.times.clone(),
+            click_times_s: self.times.iter().map(|t| t.secs()).collect(),
             click_x_m: self.x.clone(),
             click_target_x_m: self.target.clone(),
             click_hit: self.hit.clone(),

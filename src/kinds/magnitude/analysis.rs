@@ -84,10 +84,6 @@ pub struct Magnitude {
     pub means: Vec<GeoMean>,
 }
 
-fn round9(x: f64) -> f64 {
-    (x * 1e9).round() / 1e9
-}
-
 /// The analysed answers, column-wise with coded names.
 struct Answers {
     participant: Vec<u32>,
@@ -120,7 +116,7 @@ fn answers(rows: &Rows) -> Result<Answers, Problem> {
         display_names,
         mu_s: rows.numbers("mu_s")?,
         mu_k: rows.numbers("mu_k")?,
-        delta_mu: rows.numbers("delta_mu")?.into_iter().map(round9).collect(),
+        delta_mu: rows.numbers("delta_mu")?,
         ln: magnitude.iter().map(|m| m.ln()).collect(),
     })
 }

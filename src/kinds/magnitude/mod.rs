@@ -14,6 +14,7 @@
 
 use std::collections::VecDeque;
 
+use frictionlab_psychophysics::decimal;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
@@ -24,6 +25,7 @@ use crate::protocol::check::Checks;
 use crate::protocol::engine::{Action, Answer, Input, Question, Screen};
 use crate::protocol::kind::{Block, Exploration, Holds, Kinds, LiveTrial, Next, StudyKind};
 use crate::protocol::load::Walk;
+use crate::time::Time;
 
 pub mod analysis;
 pub mod report;
@@ -305,7 +307,7 @@ impl StudyKind for Magnitude {
     }
 
     fn check(d: &MagnitudeDesign, c: &mut Checks) {
-        c.positive("exploration_s", d.exploration_s);
+        c.positive_duration("exploration_s", d.exploration_s);
         if let Some(scaling) = &d.scaling {
             check_scaling(scaling, c);
             return;
@@ -336,6 +338,13 @@ impl StudyKind for Magnitude {
                     c.err(&format!("{path}.stimuli[{j}].{}", e.place), e.message);
                 }
             }
+        }
+    }
+
+    fn trials_per_repetition(d: &MagnitudeDesign) -> u64 {
+        match &d.scaling {
+            Some(sc) => sc.levels.len() as u64,
+            None => d.sets.iter().map(|s| s.stimuli.len() as u64).sum(),
         }
     }
 
@@ -386,16 +395,16 @@ impl StudyKind for Magnitude {
     /// `now + exploration_s`.
     fn start<K: Kinds>(
         trial: &MagnitudeTrial,
-        now: f64,
+        now: Time,
         out: &mut VecDeque<Action<K>>,
     ) -> Explore {
-        let until = now + trial.exploration_s;
+        let time = Exploration::from(now, trial.exploration_s);
         out.push_back(Action::Render(Some(trial.model.clone())));
-        out.push_back(Action::Show(Screen::Explore { until_s: until }));
+        out.push_back(Action::Show(Screen::Explore { until: time.until }));
         Explore {
             display: trial.display.clone(),
             stimulus: trial.stimulus.clone(),
-            time: Exploration::until(until),
+            time,
             magnitude: None,
         }
     }
@@ -427,17 +436,17 @@ pub struct Explore {
 impl LiveTrial for Explore {
     type Data = MagnitudeData;
 
-    fn timeout(&self) -> Option<f64> {
+    fn timeout(&self) -> Option<Time> {
         self.time.timeout()
     }
 
-    fn on_timeout<K: Kinds>(&mut self, _now: f64, out: &mut VecDeque<Action<K>>) -> Next {
+    fn on_timeout<K: Kinds>(&mut self, _now: Time, out: &mut VecDeque<Action<K>>) -> Next {
         self.time.expire(Question::Magnitude, out)
     }
 
     fn on_input<K: Kinds>(
         &mut self,
-        _now: f64,
+        _now: Time,
         input: Input,
         out: &mut VecDeque<Action<K>>,
     ) -> Next {
@@ -457,7 +466,7 @@ impl LiveTrial for Explore {
         }
     }
 
-    fn data(&self, started: f64, now: f64, _completed: bool) -> MagnitudeData {
+    fn data(&self, started: Time, now: Time, _completed: bool) -> MagnitudeData {
         let (coefficients, scaled) = match &self.stimulus {
             Level::Coefficients(s) => (Some(*s), None),
             Level::Scaled(parameter, level) => (None, Some((parameter.clone(), *level))),
@@ -466,9 +475,10 @@ impl LiveTrial for Explore {
             display: self.display.clone(),
             mu_s: coefficients.map(|s| s.mu_s),
             mu_k: coefficients.map(|s| s.mu_k),
-            delta_mu: coefficients.map(|s| s.mu_s - s.mu_k),
+            // The difference of the design's decimals (issue 42).
+            delta_mu: coefficients.map(|s| decimal::sub(s.mu_s, s.mu_k)),
             magnitude: self.magnitude,
-            response_time_s: self.magnitude.map(|_| now - started),
+            response_time_s: self.magnitude.map(|_| (now - started).secs()),
             parameter: scaled.as_ref().map(|(p, _)| p.clone()),
             level: scaled.map(|(_, l)| l),
         }

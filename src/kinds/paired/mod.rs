@@ -20,6 +20,7 @@ use crate::protocol::check::Checks;
 use crate::protocol::engine::{Action, Answer, Choice, Input, Question, Screen};
 use crate::protocol::kind::{Block, Exploration, Holds, Kinds, LiveTrial, Next, StudyKind};
 use crate::protocol::load::Walk;
+use crate::time::Time;
 
 pub mod analysis;
 pub mod report;
@@ -118,8 +119,8 @@ impl StudyKind for Paired {
     }
 
     fn check(d: &PairedDesign, c: &mut Checks) {
-        c.non_negative("reference_s", d.reference_s);
-        c.positive("exploration_s", d.exploration_s);
+        c.duration("reference_s", d.reference_s);
+        c.positive_duration("exploration_s", d.exploration_s);
         let ids = c.condition_ids("conditions", d.conditions.iter().map(|c| c.id.as_str()));
         if d.pairs.is_empty() {
             c.err("pairs", "no pairs: the protocol has zero trials");
@@ -140,6 +141,10 @@ impl StudyKind for Paired {
                 );
             }
         }
+    }
+
+    fn trials_per_repetition(d: &PairedDesign) -> u64 {
+        d.pairs.len() as u64
     }
 
     /// One block, `main`: the pairs as listed.
@@ -200,7 +205,7 @@ impl StudyKind for Paired {
 
     /// Renders the first stimulus and shows the comparison screen until
     /// `now + 2 exploration_s`.
-    fn start<K: Kinds>(trial: &PairedTrial, now: f64, out: &mut VecDeque<Action<K>>) -> Compare {
+    fn start<K: Kinds>(trial: &PairedTrial, now: Time, out: &mut VecDeque<Action<K>>) -> Compare {
         Compare::start(trial, None, now, out)
     }
 
@@ -232,20 +237,20 @@ impl Compare {
     pub fn start<K: Kinds>(
         trial: &PairedTrial,
         forced: Option<String>,
-        now: f64,
+        now: Time,
         out: &mut VecDeque<Action<K>>,
     ) -> Self {
         let PairedTrial { first, second, .. } = trial;
-        let until = now + 2.0 * trial.exploration_s;
+        let time = Exploration::from(now, 2.0 * trial.exploration_s);
         out.push_back(Action::Render(Some(first.model.clone())));
         out.push_back(Action::Show(Screen::Paired {
             active: 0,
-            until_s: until,
+            until: time.until,
             forced: forced.clone(),
         }));
         Compare {
             conditions: [first.clone(), second.clone()],
-            time: Exploration::until(until),
+            time,
             choice: None,
             forced,
         }
@@ -255,11 +260,11 @@ impl Compare {
 impl LiveTrial for Compare {
     type Data = PairedData;
 
-    fn timeout(&self) -> Option<f64> {
+    fn timeout(&self) -> Option<Time> {
         self.time.timeout()
     }
 
-    fn on_timeout<K: Kinds>(&mut self, _now: f64, out: &mut VecDeque<Action<K>>) -> Next {
+    fn on_timeout<K: Kinds>(&mut self, _now: Time, out: &mut VecDeque<Action<K>>) -> Next {
         let question = if self.forced.is_some() {
             Question::ForcedChoice
         } else {
@@ -270,7 +275,7 @@ impl LiveTrial for Compare {
 
     fn on_input<K: Kinds>(
         &mut self,
-        now: f64,
+        now: Time,
         input: Input,
         out: &mut VecDeque<Action<K>>,
     ) -> Next {
@@ -279,7 +284,7 @@ impl LiveTrial for Compare {
                 out.push_back(Action::Render(Some(self.conditions[i].model.clone())));
                 out.push_back(Action::Show(Screen::Paired {
                     active: i,
-                    until_s: self.time.until,
+                    until: self.time.until,
                     forced: self.forced.clone(),
                 }));
                 Next::Stay
@@ -299,7 +304,7 @@ impl LiveTrial for Compare {
         }
     }
 
-    fn data(&self, _started: f64, _now: f64, _completed: bool) -> PairedData {
+    fn data(&self, _started: Time, _now: Time, _completed: bool) -> PairedData {
         let [first, second] = &self.conditions;
         PairedData {
             first: first.id.clone(),

@@ -14,6 +14,7 @@
 use std::collections::VecDeque;
 use std::sync::Arc;
 
+use frictionlab_psychophysics::decimal;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
@@ -22,12 +23,13 @@ use crate::analysis::{AnalysisEntry, KindAnalysis};
 use crate::friction::ModelParams;
 use crate::kinds::magnitude::{Stimulus, stimulus_model};
 use crate::kinds::paired::{Compare, Paired, PairedData, PairedTrial};
-use crate::protocol::check::Checks;
+use crate::protocol::check::{Checks, MAX_TRIALS};
 use crate::protocol::engine::{Action, Input, Status, TrialRecord, TrialSource};
 use crate::protocol::kind::{Holds, Kinds, LiveTrial, Next, StudyKind};
 use crate::protocol::load::Walk;
 use crate::protocol::plan::PlannedTrial;
 use crate::protocol::{Condition, Protocol};
+use crate::time::Time;
 
 /// The toy staircase kind.
 #[derive(Debug)]
@@ -143,13 +145,21 @@ impl StudyKind for Staircase {
         }
         c.positive("start_delta", d.start_delta);
         c.positive("step", d.step);
-        c.positive("exploration_s", d.exploration_s);
+        c.positive_duration("exploration_s", d.exploration_s);
+        if let Some(m) = d.max_trials {
+            c.at_most("max_trials", "the session's trials", u64::from(m), MAX_TRIALS);
+        }
         if d.max_trials == Some(0) {
             c.err("max_trials", "must be at least 1");
         }
         if d.reversals == 0 {
             c.err("reversals", "must be at least 1");
         }
+    }
+
+    /// None: the track makes its trials.
+    fn trials_per_repetition(_: &StaircaseDesign) -> u64 {
+        0
     }
 
     fn source<K: Holds<Self>>(
@@ -168,7 +178,7 @@ impl StudyKind for Staircase {
         Paired::loop_rate_hz(&t.pair)
     }
 
-    fn start<K: Kinds>(t: &StaircaseTrial, now: f64, out: &mut VecDeque<Action<K>>) -> Track {
+    fn start<K: Kinds>(t: &StaircaseTrial, now: Time, out: &mut VecDeque<Action<K>>) -> Track {
         Track {
             compare: <Paired as StudyKind>::start(&t.pair, now, out),
             delta_mu_s: t.delta_mu_s,
@@ -185,24 +195,24 @@ impl StudyKind for Staircase {
 impl LiveTrial for Track {
     type Data = StaircaseData;
 
-    fn timeout(&self) -> Option<f64> {
+    fn timeout(&self) -> Option<Time> {
         self.compare.timeout()
     }
 
-    fn on_timeout<K: Kinds>(&mut self, now: f64, out: &mut VecDeque<Action<K>>) -> Next {
+    fn on_timeout<K: Kinds>(&mut self, now: Time, out: &mut VecDeque<Action<K>>) -> Next {
         self.compare.on_timeout(now, out)
     }
 
     fn on_input<K: Kinds>(
         &mut self,
-        now: f64,
+        now: Time,
         input: Input,
         out: &mut VecDeque<Action<K>>,
     ) -> Next {
         self.compare.on_input(now, input, out)
     }
 
-    fn data(&self, started: f64, now: f64, completed: bool) -> StaircaseData {
+    fn data(&self, started: Time, now: Time, completed: bool) -> StaircaseData {
         StaircaseData {
             delta_mu_s: self.delta_mu_s,
             answer: self.compare.data(started, now, completed),
@@ -236,7 +246,12 @@ impl Source {
                 reversals += 1;
             }
             last = Some(down);
-            delta = if down { delta - d.step } else { delta + d.step }.max(d.step);
+            delta = if down {
+                decimal::sub(delta, d.step)
+            } else {
+                decimal::add(delta, d.step)
+            }
+            .max(d.step);
         }
         (delta, reversals)
     }
@@ -256,7 +271,7 @@ impl<K: Holds<Staircase>> TrialSource<K> for Source {
         };
         let (reference, comparison) = (
             with("reference", base.mu_s),
-            with("comparison", base.mu_s + delta),
+            with("comparison", decimal::add(base.mu_s, delta)),
         );
         let seed = (self.seed ^ index as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
         let (first, second) = if seed >> 63 == 0 {
@@ -315,6 +330,7 @@ mod tests {
     use crate::kinds::{Action, PlannedTrial, TrialData, TrialSpec};
     use crate::protocol::engine::{Answer, Choice, Input, Question, Screen};
     use crate::results::{ResultsDir, read_log};
+    use crate::time::Time;
     use crate::session::{
         DeviceChoice, Reaction, Responder, SessionRequest, plan as plan_session, run_planned,
     };
@@ -346,7 +362,7 @@ mod tests {
         fn hand_mass_kg(&self) -> f64 {
             0.4
         }
-        fn on_action(&mut self, _: f64, action: &Action, trial: Option<&PlannedTrial>) -> Reaction {
+        fn on_action(&mut self, _: Time, action: &Action, trial: Option<&PlannedTrial>) -> Reaction {
             let inputs = match (action, trial.map(|t| &t.spec)) {
                 (Action::Show(Screen::Instructions(_)), _) => vec![Input::Continue],
                 (
@@ -369,13 +385,13 @@ mod tests {
                 reset_to: None,
             }
         }
-        fn decide(&mut self, _: f64, _: &DeviceSample) -> Reaction {
+        fn decide(&mut self, _: Time, _: &DeviceSample) -> Reaction {
             Reaction::default()
         }
-        fn drive(&self, _: f64, _: &DeviceSample) -> Option<HandDrive> {
+        fn drive(&self, _: Time, _: &DeviceSample) -> Option<HandDrive> {
             None
         }
-        fn hand_force(&mut self, _: f64, _: f64, _: &DeviceSample) -> f64 {
+        fn hand_force(&mut self, _: Time, _: f64, _: &DeviceSample) -> f64 {
             0.0
         }
     }
@@ -442,7 +458,8 @@ mod tests {
         run(dir.path(), false, None);
         // 0.4 c, 0.3 c, 0.2 c, 0.1 w (1), 0.2 c (2), 0.1 w (3), 0.2 c (4): stop.
         let track = track(dir.path());
-        let deltas: Vec<f64> = track.iter().map(|t| (t.0 * 10.0).round() / 10.0).collect();
+        // The design's decimals, exactly (issue 42).
+        let deltas: Vec<f64> = track.iter().map(|t| t.0).collect();
         let picks: Vec<bool> = track.iter().map(|t| t.1).collect();
         assert_eq!(deltas, [0.4, 0.3, 0.2, 0.1, 0.2, 0.1, 0.2]);
         assert_eq!(picks, [true, true, true, false, true, false, true]);

@@ -41,6 +41,7 @@ use super::Protocol;
 use super::kind::{Kinds, Next};
 use super::plan::{Plan, PlannedTrial};
 use crate::friction::ModelParams;
+use crate::time::Time;
 
 mod record;
 mod source;
@@ -90,30 +91,30 @@ pub enum Input {
 pub enum Screen {
     /// Text to read, then continue.
     Instructions(String),
-    /// Paired comparison's reference phase (real surface) until `until_s`.
+    /// Paired comparison's reference phase (real surface) until `until`.
     Reference {
         /// What to do.
         instructions: String,
-        /// End of the phase, s.
-        until_s: f64,
+        /// End of the phase (session time).
+        until: Time,
     },
-    /// A break between blocks until `until_s` (may be ended early).
+    /// A break between blocks until `until` (may be ended early).
     Break {
-        /// End of the break, s.
-        until_s: f64,
+        /// End of the break (session time).
+        until: Time,
     },
-    /// Magnitude estimation: explore until `until_s`, answer any time.
+    /// Magnitude estimation: explore until `until`, answer any time.
     Explore {
-        /// End of the exploration, s.
-        until_s: f64,
+        /// End of the exploration (session time).
+        until: Time,
     },
     /// Two stimuli, `active` (0 first, 1 second) rendered: a paired
     /// comparison, or a discrimination's two intervals.
     Paired {
         /// Active stimulus.
         active: usize,
-        /// End of the exploration, s.
-        until_s: f64,
+        /// End of the exploration (session time).
+        until: Time,
         /// A two-interval forced choice asking this question (answered
         /// first or second, [`Question::ForcedChoice`]); `None`: the paired
         /// comparison's nearness to the real surface.
@@ -173,8 +174,8 @@ pub enum Action<K: Kinds> {
 enum Stage<K: Kinds> {
     Idle,
     Instructions,
-    Reference { until: f64 },
-    Break { until: f64 },
+    Reference { until: Time },
+    Break { until: Time },
     Prompt,
     Trial(Live<K>),
     AwaitWrite { requeue: bool },
@@ -183,7 +184,7 @@ enum Stage<K: Kinds> {
 
 #[derive(Debug, Clone)]
 struct Live<K: Kinds> {
-    started: f64,
+    started: Time,
     state: K::Live,
 }
 
@@ -299,33 +300,36 @@ impl<K: Kinds> Engine<K> {
         self.out.pop_front()
     }
 
-    /// Feeds one input at session time `now_s`. Inputs that make no sense in
+    /// Feeds one input at session time `now`. Inputs that make no sense in
     /// the current stage are ignored.
-    pub fn handle(&mut self, now_s: f64, input: Input) {
+    pub fn handle(&mut self, now: Time, input: Input) {
         let stage = std::mem::replace(&mut self.stage, Stage::Idle);
         self.stage = match (stage, input) {
-            (Stage::Idle, Input::Start) => self.start(now_s),
-            (Stage::Instructions, Input::Continue) => self.after_instructions(now_s),
-            (Stage::Reference { .. }, Input::Continue) => self.begin_trial(now_s, false),
-            (Stage::Break { .. }, Input::Continue) => self.begin_trial(now_s, true),
-            (Stage::Prompt, Input::Continue) => self.start_live(now_s),
-            (Stage::Trial(live), input) => self.live(now_s, live, input),
+            (Stage::Idle, Input::Start) => self.start(now),
+            (Stage::Instructions, Input::Continue) => self.after_instructions(now),
+            (Stage::Reference { .. }, Input::Continue) => self.begin_trial(now, false),
+            (Stage::Break { .. }, Input::Continue) => self.begin_trial(now, true),
+            (Stage::Prompt, Input::Continue) => self.start_live(now),
+            (Stage::Trial(live), input) => self.live(now, live, input),
             (Stage::AwaitWrite { requeue }, Input::Recorded) => {
                 if !requeue {
                     self.previous_block = self.current.as_ref().map(|t| t.block_index);
                     self.next += 1;
                 }
                 self.current = self.source.trial(self.next, &self.history);
-                self.begin_trial(now_s, false)
+                self.begin_trial(now, false)
             }
             (stage, _) => stage,
         };
     }
 
-    /// When the engine next wants [`Engine::handle_timeout`], session time
-    /// in s (`None`: nothing is timed now).
+    /// When the engine next wants [`Engine::handle_timeout`], in session
+    /// time (`None`: nothing is timed now). Every timer is a whole number
+    /// of nanoseconds from the moment it was set, so a driver whose clock
+    /// counts whole ticks fires it at the same tick of the trial wherever
+    /// the trial started.
     #[must_use]
-    pub fn poll_timeout(&self) -> Option<f64> {
+    pub fn poll_timeout(&self) -> Option<Time> {
         match &self.stage {
             Stage::Reference { until } | Stage::Break { until } => Some(*until),
             Stage::Trial(live) => K::timeout(&live.state),
@@ -333,25 +337,25 @@ impl<K: Kinds> Engine<K> {
         }
     }
 
-    /// The driver's clock has reached `now_s`: fires the timeout of
+    /// The driver's clock has reached `now`: fires the timeout of
     /// [`Engine::poll_timeout`] if it is due (else does nothing).
-    pub fn handle_timeout(&mut self, now_s: f64) {
-        if self.poll_timeout().is_none_or(|due| now_s < due) {
+    pub fn handle_timeout(&mut self, now: Time) {
+        if self.poll_timeout().is_none_or(|due| now < due) {
             return;
         }
         let stage = std::mem::replace(&mut self.stage, Stage::Idle);
         self.stage = match stage {
-            Stage::Reference { .. } => self.begin_trial(now_s, false),
-            Stage::Break { .. } => self.begin_trial(now_s, true),
+            Stage::Reference { .. } => self.begin_trial(now, false),
+            Stage::Break { .. } => self.begin_trial(now, true),
             Stage::Trial(mut live) => {
-                let next = K::on_timeout(&mut live.state, now_s, &mut self.out);
-                self.after(now_s, live, next)
+                let next = K::on_timeout(&mut live.state, now, &mut self.out);
+                self.after(now, live, next)
             }
             stage => stage,
         };
     }
 
-    fn start(&mut self, now: f64) -> Stage<K> {
+    fn start(&mut self, now: Time) -> Stage<K> {
         if self.next == 0 && !self.protocol.instructions.is_empty() {
             self.out.push_back(Action::Show(Screen::Instructions(
                 self.protocol.instructions.clone(),
@@ -361,14 +365,14 @@ impl<K: Kinds> Engine<K> {
         self.after_instructions(now)
     }
 
-    fn after_instructions(&mut self, now: f64) -> Stage<K> {
+    fn after_instructions(&mut self, now: Time) -> Stage<K> {
         if let Some((instructions, duration)) = K::reference(&self.protocol.design)
             && self.next == 0
         {
-            let until = now + duration;
+            let until = now + Time::from_secs_saturating(duration);
             self.out.push_back(Action::Show(Screen::Reference {
                 instructions: instructions.to_owned(),
-                until_s: until,
+                until,
             }));
             return Stage::Reference { until };
         }
@@ -377,7 +381,7 @@ impl<K: Kinds> Engine<K> {
 
     /// Starts the next trial, with a break first at a block boundary (unless
     /// `break_done`).
-    fn begin_trial(&mut self, now: f64, break_done: bool) -> Stage<K> {
+    fn begin_trial(&mut self, now: Time, break_done: bool) -> Stage<K> {
         let Some(trial) = &self.current else {
             self.out.push_back(Action::Render(None));
             self.out.push_back(Action::Finished);
@@ -385,10 +389,9 @@ impl<K: Kinds> Engine<K> {
         };
         let block_start = self.previous_block.is_some_and(|b| b != trial.block_index);
         if block_start && !break_done && self.protocol.break_s > 0.0 {
-            let until = now + self.protocol.break_s;
+            let until = now + Time::from_secs_saturating(self.protocol.break_s);
             self.out.push_back(Action::Render(None));
-            self.out
-                .push_back(Action::Show(Screen::Break { until_s: until }));
+            self.out.push_back(Action::Show(Screen::Break { until }));
             return Stage::Break { until };
         }
         if let Some(text) = K::prompt(&trial.spec) {
@@ -398,7 +401,7 @@ impl<K: Kinds> Engine<K> {
         self.start_live(now)
     }
 
-    fn start_live(&mut self, now: f64) -> Stage<K> {
+    fn start_live(&mut self, now: Time) -> Stage<K> {
         let Some(state) = self
             .current
             .as_ref()
@@ -412,7 +415,7 @@ impl<K: Kinds> Engine<K> {
         })
     }
 
-    fn live(&mut self, now: f64, mut live: Live<K>, input: Input) -> Stage<K> {
+    fn live(&mut self, now: Time, mut live: Live<K>, input: Input) -> Stage<K> {
         if let Input::Abort { reason, requeue } = input {
             return self.finish(now, &live, Some(reason), requeue);
         }
@@ -421,7 +424,7 @@ impl<K: Kinds> Engine<K> {
     }
 
     /// Goes on with the live trial, or ends it as its kind says.
-    fn after(&mut self, now: f64, live: Live<K>, next: Next) -> Stage<K> {
+    fn after(&mut self, now: Time, live: Live<K>, next: Next) -> Stage<K> {
         match next {
             Next::Stay => Stage::Trial(live),
             Next::Finish(abort) => self.finish(now, &live, abort, false),
@@ -431,7 +434,7 @@ impl<K: Kinds> Engine<K> {
     /// Ends the live trial: record it and wait for the write.
     fn finish(
         &mut self,
-        now: f64,
+        now: Time,
         live: &Live<K>,
         abort: Option<String>,
         requeue: bool,

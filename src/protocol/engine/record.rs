@@ -4,6 +4,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::protocol::kind::Kinds;
+use crate::time::Time;
 
 /// A paired-comparison answer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
@@ -75,10 +76,11 @@ pub struct TrialRecord<K: Kinds> {
     pub requeued: bool,
     /// The trial's seed.
     pub trial_seed: u64,
-    /// Session time at the trial's start, s.
-    pub started_s: f64,
+    /// Session time at the trial's start, s: a whole number of ticks
+    /// (format 2; a format 1 log's float sum reads to the nearest ns).
+    pub started_s: Time,
     /// Session time at its end, s.
-    pub ended_s: f64,
+    pub ended_s: Time,
     /// What was presented and answered.
     pub data: K::Data,
     /// What rendered the trial's friction, one entry per render the
