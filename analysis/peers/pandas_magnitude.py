@@ -46,7 +46,8 @@ def read(folder):
 
 
 def summary(rows, order):
-    rows = rows.assign(ln=np.log(rows.magnitude), delta_mu=rows.delta_mu.round(9))
+    # delta_mu as written: the design's levels (issue 42), no rounding.
+    rows = rows.assign(ln=np.log(rows.magnitude))
     present = set(rows.display.unique())
     displays = [d for d in order if d in present]
     displays += sorted(present - set(displays))
