@@ -394,12 +394,15 @@ impl Publisher {
         let start = self.lsl.local_clock();
         let left = |lsl: &Lsl| (wait_s - (lsl.local_clock() - start)).max(0.0);
         let marker_reader = wait_s > 0.0 && markers.wait_for_consumers(wait_s);
-        let device_reader = {
-            let q = self.shared.lock();
-            q.device.as_ref().is_some_and(|(o, _)| {
-                left(&self.lsl) > 0.0 && o.wait_for_consumers(left(&self.lsl))
-            })
-        };
+        // Out of the queue while waited on: a port's haptic loop queues
+        // its samples meanwhile, and must not wait for the lock.
+        let device = self.shared.lock().device.take();
+        let device_reader = device
+            .as_ref()
+            .is_some_and(|(o, _)| left(&self.lsl) > 0.0 && o.wait_for_consumers(left(&self.lsl)));
+        if device.is_some() {
+            self.shared.lock().device = device;
+        }
         let worker = {
             let (lsl, shared) = (self.lsl.clone(), self.shared.clone());
             std::thread::Builder::new()

@@ -180,6 +180,27 @@ fn a_plan_of_the_limit_is_accepted() {
     assert!(frictionlab::protocol::load::parse::<Registry>(&p.to_string()).is_err());
 }
 
+/// The size computed from the fields is the size of the plan built, for
+/// every shipped protocol (0 for the kinds whose trials adapt).
+#[test]
+fn the_plan_size_computed_is_the_plan_built() {
+    use frictionlab::protocol::kind::Kinds;
+    for file in common::shipped_protocols() {
+        let (p, _) = frictionlab::protocol::load::read::<Registry>(&file).unwrap();
+        let per = Registry::trials_per_repetition(&p.design);
+        let planned = Registry::source(&p, 1, 0).planned();
+        match planned {
+            Some(n) => assert_eq!(
+                per * u64::from(p.repetitions),
+                n as u64,
+                "{}",
+                file.display()
+            ),
+            None => assert_eq!(per, 0, "{}", file.display()),
+        }
+    }
+}
+
 /// Every numeric leaf of `v`, as a JSON pointer.
 fn numeric_fields(v: &Value, at: &str, out: &mut Vec<String>) {
     match v {

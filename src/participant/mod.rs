@@ -225,8 +225,11 @@ struct Phasor {
     rotation: (f64, f64),
 }
 
-/// Steps whose lengths differ by at most this much are equal, s (a tick
-/// from a clock summed in f64 over hours differs by less than 1e-13 s).
+/// Steps whose lengths differ by at most this much are equal, s: two
+/// trial-local times, each a whole number of nanoseconds rounded once to
+/// seconds, differ from their tick by a few units in the last place
+/// (under 1e-12 s in the first hour of a trial; later steps are computed
+/// directly).
 const SAME_STEP_S: f64 = 1e-12;
 
 impl Phasor {

@@ -432,7 +432,8 @@ impl<R: Responder> Session<R> {
         {
             // The loop's clock on the session's, to the nearest tick of
             // the device's rate, never going back.
-            let period = Time::period(port.how(&tick).rate_hz);
+            let how = port.how(&tick);
+            let period = Time::period(how.rate_hz);
             let at = self.start_t + Time::from_secs_saturating(tick.now_s).round_to(period);
             self.t = self.t.max(at);
             if tick.link != LinkState::Connected {
@@ -446,7 +447,6 @@ impl<R: Responder> Session<R> {
             if self.lost_since.take().is_some() {
                 lsl::device_lost(self.lsl.as_deref_mut(), self.t, false);
             }
-            let how = port.how(&tick);
             if matches!(self.log, Log::Planned { .. }) {
                 if self.lsl.as_ref().is_some_and(|tap| !tap.is_open()) {
                     // Its streams open first (issue 42), and may have
