@@ -1306,7 +1306,7 @@ fn the_desktops_file_chooser_opens_a_protocol_in_the_builder_issue_37() {
         .env_remove("WAYLAND_DISPLAY")
         .env_remove("DBUS_SESSION_BUS_ADDRESS")
         .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
+        .stderr(std::fs::File::create(dir.path().join("gui.err")).unwrap())
         .spawn()
         .unwrap();
     let finish = |gui: &mut std::process::Child, x: &mut std::process::Child| {
@@ -1344,11 +1344,20 @@ fn the_desktops_file_chooser_opens_a_protocol_in_the_builder_issue_37() {
         finish(&mut gui, &mut x);
         panic!("window up: {up}, chooser up: {chooser}");
     }
-    std::thread::sleep(std::time::Duration::from_secs(1));
-    let z = zenity().unwrap();
-    xdotool(&["windowfocus", "--sync", &z]);
-    xdotool(&["key", "Return"]);
-    let closed = wait_for(10.0, || zenity().is_none());
+    // The chooser selects the file once it has read its folder; a Return
+    // before that selects nothing and leaves it open. Return is pressed
+    // until the chooser closes (once it has, there is nothing to press).
+    let mut returns = 0;
+    let closed = wait_for(60.0, || match zenity() {
+        None => true,
+        Some(z) => {
+            std::thread::sleep(std::time::Duration::from_secs(1));
+            xdotool(&["windowfocus", "--sync", &z]);
+            xdotool(&["key", "Return"]);
+            returns += 1;
+            wait_for(5.0, || zenity().is_none())
+        }
+    });
     let form = frictionlab::protocol::form::Form::of::<Registry>();
     let expected = form.text(&value);
     // Opened from the chooser, it may be saved over: Save (clicked until
@@ -1368,7 +1377,9 @@ fn the_desktops_file_chooser_opens_a_protocol_in_the_builder_issue_37() {
     finish(&mut gui, &mut x);
     assert!(
         saved,
-        "the file chosen was not opened and saved: {}",
-        std::fs::read_to_string(&file).unwrap()
+        "the file chosen was not opened and saved (chooser closed: {closed}, \
+         after {returns} Return presses): {}\nthe window's stderr: {}",
+        std::fs::read_to_string(&file).unwrap(),
+        std::fs::read_to_string(dir.path().join("gui.err")).unwrap_or_default()
     );
 }
