@@ -267,7 +267,27 @@ fn quick_sessions_run_on_the_firmware_in_qemu_and_rerender_bit_exact_issue_16() 
             (0.0, 0.0),
             "bit-exact: {inexact:#?}, records {statuses:?}"
         );
-        assert!(r.rows > 10_000, "{} rows re-rendered", r.rows);
+        // QEMU renders in real time: on a loaded machine it falls behind,
+        // the link loses telemetry and the replay stops at each stream's
+        // first gap (rerender's rule), so how many rows are compared is
+        // the machine's, not the design's (unloaded here: 0 ticks lost and
+        // 32,000-44,000 magnitude-quick rows; one core busy: 13,000-16,000
+        // ticks lost, up to 34 trials aborted, 57-1,735 rows). The rule: a
+        // replay stops only at lost telemetry or a restart, and some rows
+        // are compared.
+        let mut replayed = 0;
+        for x in &r.reports {
+            let [rows, skipped, unreplayed, missing] =
+                ["rows", "skipped", "unreplayed_rows", "missing_ticks"]
+                    .map(|k| x[k].as_u64().unwrap());
+            assert!(
+                unreplayed == 0 || missing > 0 || !x["restarted_row"].is_null(),
+                "{x}"
+            );
+            replayed += rows - skipped - unreplayed;
+        }
+        eprintln!("{protocol}: {replayed} rows compared");
+        assert!(replayed > 0, "no row re-rendered: {:#?}", r.reports);
         // A trial's stream ends where its device was lost: none shows the
         // device started afresh by the reconnection.
         for x in &r.reports {
