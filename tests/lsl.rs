@@ -186,22 +186,7 @@ fn assert_trial_times(log: &ReadLog, markers: &[(f64, Value)]) {
 /// those pauses leave the span and the rest must be the exact grid.
 fn assert_device(got: &Value, channels: &[&str], writes: Option<usize>) -> f64 {
     let d = &got["device"];
-    assert_eq!(d["type"], "Haptics");
-    let labels: Vec<&str> = d["channels"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|c| c["label"].as_str().unwrap())
-        .collect();
-    assert_eq!(labels, channels);
-    let units: Vec<&str> = d["channels"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|c| c["unit"].as_str().unwrap())
-        .collect();
-    assert_eq!(&units[..4], ["m", "m/s", "N", "normalized"]);
-    assert_eq!(d["increasing"], true, "timestamps not increasing");
+    assert_channels(d, channels);
     let rate = d["nominal_srate"].as_f64().unwrap();
     let span = d["last"].as_f64().unwrap() - d["first"].as_f64().unwrap();
     let count = d["count"].as_f64().unwrap();
@@ -226,6 +211,27 @@ fn assert_device(got: &Value, channels: &[&str], writes: Option<usize>) -> f64 {
         );
     }
     count
+}
+
+/// The device stream's type, labels and units, in order, with increasing
+/// timestamps.
+fn assert_channels(d: &Value, channels: &[&str]) {
+    assert_eq!(d["type"], "Haptics");
+    let labels: Vec<&str> = d["channels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["label"].as_str().unwrap())
+        .collect();
+    assert_eq!(labels, channels);
+    let units: Vec<&str> = d["channels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["unit"].as_str().unwrap())
+        .collect();
+    assert_eq!(&units[..4], ["m", "m/s", "N", "normalized"]);
+    assert_eq!(d["increasing"], true, "timestamps not increasing");
 }
 
 #[test]
@@ -374,12 +380,16 @@ fn a_device_rendering_on_board_publishes_its_telemetry_with_the_tick_channel() {
     let _ = emu.wait();
     let (got, log, marks) = session_received(&run, listener, &out, &results);
     assert_trial_times(&log, &marks);
-    assert_device(
-        &got,
-        &["position_m", "velocity_m_s", "force_n", "vibration", "tick"],
-        None,
-    );
+    // The board's own loop sets this stream's rate, not the host's clock:
+    // the emulator renders it in real time and falls behind on a loaded
+    // machine (one core busy: 62,201 ticks in 12.566 s of host time, 1.0%
+    // under 5 kHz). The rule is that every tick it rendered is published,
+    // once and in order.
     let d = &got["device"];
+    assert_channels(
+        d,
+        &["position_m", "velocity_m_s", "force_n", "vibration", "tick"],
+    );
     assert_eq!(d["mode"], "on_board");
     assert_eq!(d["ticks_consecutive"], true, "device ticks skipped");
     assert_eq!(d["ticks"], d["count"]);
