@@ -217,19 +217,16 @@ fn assert_device(got: &Value, channels: &[&str], writes: Option<usize>) -> f64 {
 /// timestamps.
 fn assert_channels(d: &Value, channels: &[&str]) {
     assert_eq!(d["type"], "Haptics");
-    let labels: Vec<&str> = d["channels"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|c| c["label"].as_str().unwrap())
-        .collect();
+    let each = |key: &str| -> Vec<String> {
+        d["channels"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| c[key].as_str().unwrap().to_owned())
+            .collect()
+    };
+    let (labels, units) = (each("label"), each("unit"));
     assert_eq!(labels, channels);
-    let units: Vec<&str> = d["channels"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|c| c["unit"].as_str().unwrap())
-        .collect();
     assert_eq!(&units[..4], ["m", "m/s", "N", "normalized"]);
     assert_eq!(d["increasing"], true, "timestamps not increasing");
 }
