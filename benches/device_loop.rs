@@ -14,10 +14,10 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use frictionlab::device::frictionlab::link::{Incoming, Link, LinkState};
+use frictionlab::device::frictionlab::wire::{Message, frame};
 use frictionlab::device::haptic::HapticLoop;
-use frictionlab::device::link::{Incoming, Link, LinkState};
 use frictionlab::device::transport::Transport;
-use frictionlab::device::wire::{Message, frame};
 
 /// The emulator process, stopped when dropped (also when a failed run
 /// stops the bench).
@@ -63,7 +63,7 @@ fn loop_timing() {
         (5000.0, true),
     ] {
         let haptic = HapticLoop::start(
-            path.clone(),
+            Box::new(frictionlab::device::frictionlab::Port::new(&path)),
             frictionlab::friction::StepParams {
                 rate_hz: rate,
                 ..Default::default()

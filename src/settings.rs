@@ -147,6 +147,10 @@ fn set(value: &mut Value, path: &str, text: &str) -> Result<(), String> {
             .parse::<bool>()
             .map(Value::from)
             .map_err(|_| format!("expected true or false, got '{text}'"))?,
+        Value::Array(_) => serde_json::from_str::<Value>(text)
+            .ok()
+            .filter(Value::is_array)
+            .ok_or_else(|| format!("expected a list such as [0.01, 0.1, 0], got '{text}'"))?,
         _ => Value::from(text),
     };
     *slot = new;

@@ -14,10 +14,10 @@ use std::path::Path;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use frictionlab::device::emulator::EmulatorCore;
-use frictionlab::device::link::{Incoming, Link, LinkState, Sample};
+use frictionlab::device::frictionlab::emulator::EmulatorCore;
+use frictionlab::device::frictionlab::link::{Incoming, Link, LinkState, Sample};
+use frictionlab::device::frictionlab::wire::{Decoder, MAX_FRAME, Message, encode, frame, status};
 use frictionlab::device::transport::Transport;
-use frictionlab::device::wire::{Decoder, MAX_FRAME, Message, encode, frame, status};
 
 /// `TTYPort::pair` is not thread-safe: tests that make pairs take turns.
 static PTY: Mutex<()> = Mutex::new(());
@@ -240,7 +240,7 @@ fn a_link_that_drops_bytes_and_flips_bits_keeps_working() {
 /// its first trial on the host's loop because `OnBoard` came a read later.
 #[test]
 fn a_version_2_device_is_connected_once_its_on_board_statement_is_in() {
-    use frictionlab::device::link::ON_BOARD_WAIT_S;
+    use frictionlab::device::frictionlab::link::ON_BOARD_WAIT_S;
     let caps = frame(&Message::Capabilities {
         version: 2,
         dof: 1,

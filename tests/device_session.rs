@@ -270,7 +270,7 @@ fn a_live_gui_session_runs_on_the_emulated_device() {
     let (protocol, bytes) =
         frictionlab::protocol::load::read::<Registry>(Path::new(&path)).unwrap();
     let results = frictionlab::results::ResultsDir::new(dir.path().join("results"));
-    let device = DeviceChoice::Port(dev.clone());
+    let device = DeviceChoice::port(dev.clone());
     let req = SessionRequest {
         protocol: &protocol,
         protocol_bytes: &bytes,
@@ -363,7 +363,7 @@ fn a_live_session_on_a_silent_device_writes_nothing() {
         seed: 2,
         resume: false,
         pace: None,
-        device: &DeviceChoice::Port(port.clone().into()),
+        device: &DeviceChoice::port(&port),
         streams: true,
         population: None,
         lsl: None,
@@ -537,7 +537,7 @@ fn a_device_lost_in_the_answer_phase_costs_that_trial_headless() {
     let dev = dir.path().join("dev");
     let emu = common::emulator(&dev);
     let results = frictionlab::results::ResultsDir::new(dir.path().join("results"));
-    let device = DeviceChoice::Port(dev.clone());
+    let device = DeviceChoice::port(dev.clone());
     let runner = std::thread::spawn(move || {
         let (protocol, bytes) = magnitude_quick();
         let req = SessionRequest {
@@ -587,7 +587,7 @@ fn live_magnitude_quick(
         seed: 3,
         resume: false,
         pace: None,
-        device: &DeviceChoice::Port(dev.to_path_buf()),
+        device: &DeviceChoice::port(dev),
         streams: true,
         population: None,
         lsl: None,
@@ -778,7 +778,7 @@ fn feeling_a_condition_on_the_emulated_device_renders_it_under_the_hand() {
         let dev = dir.path().join("dev");
         let emu = common::emulator(&dev);
         let model = ModelParams::default_for(name).unwrap();
-        let mut feel = Feel::start(&DeviceChoice::Port(dev.clone()), &model, 0.0).unwrap();
+        let mut feel = Feel::start(&DeviceChoice::port(dev.clone()), &model, 0.0).unwrap();
         let start = Instant::now();
         let (mut connected, mut reached, mut peak) = (false, false, 0.0_f64);
         // The pointer sweeps 0 to 8 mm and back, twice a second.

@@ -18,7 +18,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, PoisonError, RwLock, RwLockReadGuard, RwLockWriteGuard};
 use std::time::{Duration, Instant};
 
-use frictionlab::device::wire::{Decoder, Message, PROTOCOL_VERSION, frame};
+use frictionlab::device::frictionlab::wire::{Decoder, Message, PROTOCOL_VERSION, frame};
 use frictionlab::kinds::Registry;
 use frictionlab::results::read_log;
 use serialport::{SerialPort, TTYPort};

@@ -22,7 +22,7 @@ use std::process::{Child, Command, Output, Stdio};
 use std::sync::{Mutex, MutexGuard, OnceLock};
 use std::time::{Duration, Instant};
 
-use frictionlab::device::wire::{Decoder, MAX_FRAME, Message, encode, status};
+use frictionlab::device::frictionlab::wire::{Decoder, MAX_FRAME, Message, encode, status};
 use frictionlab::kinds::Registry;
 use frictionlab::protocol::engine::{RenderMode, Status};
 use frictionlab::results::read_log;

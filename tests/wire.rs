@@ -12,7 +12,7 @@
     reason = "positions in a test stream from fractions in [0, 1); the device's f32"
 )]
 
-use frictionlab::device::wire::{Decoder, MAX_FRAME, Message, frame, status};
+use frictionlab::device::frictionlab::wire::{Decoder, MAX_FRAME, Message, frame, status};
 use frictionlab::friction::{ForceLimit, Input, ModelParams};
 use frictionlab_core::onboard::{Board, upload};
 use frictionlab_core::render::{RAMP_S, Renderer};

@@ -307,7 +307,7 @@ pub(super) fn emulator_command(
     on_board: bool,
     link_delay_ms: u16,
 ) -> Result<(), Failure> {
-    use crate::device::emulator::{self, Endpoint, OpenError};
+    use crate::device::frictionlab::emulator::{self, Endpoint, OpenError};
     let place = path.display().to_string();
     let mut emulator = emulator::open(path).map_err(|e| match e {
         OpenError::NotAPort(_) => Failure::from(vec![UserError::new(&place, e.to_string())]),
@@ -344,7 +344,7 @@ pub(super) fn emulator_command(
 }
 
 pub(super) fn firmware_qemu_command(elf: &Path, link: Option<&Path>) -> Result<(), Failure> {
-    use crate::device::{emulator, qemu};
+    use crate::device::frictionlab::{emulator, qemu};
     let place = elf.display().to_string();
     let interrupt = install_interrupt()?;
     let mut board = qemu::boot(elf).map_err(|e| match e {
@@ -451,13 +451,10 @@ fn check_pace(pace: f64) -> Result<(), Vec<UserError>> {
 /// The `run` options' problems, all at once.
 fn check_run_args(args: &RunArgs) -> Vec<UserError> {
     let mut errors = Vec::new();
-    if let DeviceChoice::Port(path) = &args.device
-        && let Err(e) = crate::device::check_port(path)
+    if let DeviceChoice::Device(address) = &args.device
+        && let Err(e) = address.check()
     {
-        errors.push(UserError::new(
-            "--device",
-            format!("{}: {e}", path.display()),
-        ));
+        errors.push(UserError::new("--device", format!("{address}: {e}")));
     }
     if !(args.device_timeout.is_finite() && args.device_timeout > 0.0) {
         errors.push(UserError::new(
@@ -554,7 +551,7 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
             session::run_simulated(&dir, &req, Some(&interrupt), &mut |_, _| {})
                 .map_err(Failure::from)
         }
-        DeviceChoice::Port(path) => session::run_device(
+        DeviceChoice::Device(address) => session::run_device(
             &dir,
             &req,
             args.device_timeout,
@@ -566,8 +563,9 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
             SessionError::Results(_)
             | SessionError::NothingToResume { .. }
             | SessionError::Ended { .. }
+            | SessionError::Device(..)
             | SessionError::Lsl(_) => e.into(),
-            e => device_failure(&format!("--device {}", path.display()), e.to_string()),
+            e => device_failure(&format!("--device {address}"), e.to_string()),
         }),
     }?;
     if outcome.torn_bytes > 0 {
@@ -627,9 +625,13 @@ fn resume_command(args: &RunArgs) -> String {
         "--out".to_owned(),
         shell_word(&args.out.display().to_string()),
     ];
-    if let DeviceChoice::Port(path) = &args.device {
+    if let DeviceChoice::Device(address) = &args.device {
         words.push("--device".to_owned());
-        words.push(shell_word(&path.display().to_string()));
+        words.push(shell_word(&address.to_string()));
+        for set in &address.settings.set {
+            words.push("--device-set".to_owned());
+            words.push(shell_word(set));
+        }
     }
     if args.responder == ResponderChoice::Sim {
         words.extend(["--responder".to_owned(), "sim".to_owned()]);

@@ -20,19 +20,16 @@ use commands::{
     render_command, run_command, simulate_command, validate_command, validation_command,
 };
 
-/// `--device`: `sim` (the simulated apparatus) or a serial port's path.
-/// Whether the path is a port is checked with the other options
-/// ([`check_run_args`]), so every problem is reported at once.
-#[expect(
-    clippy::unnecessary_wraps,
-    reason = "clap's value_parser takes a fallible function"
-)]
+/// `--device`: `sim` (the simulated apparatus), a serial port's path (our
+/// own board) or `KIND:TARGET` (`haply2diy:/dev/ttyACM0`). Whether the
+/// device is there is checked with the other options ([`check_run_args`]),
+/// so every problem is reported at once.
 fn parse_device(text: &str) -> Result<DeviceChoice, String> {
-    Ok(if text == "sim" {
-        DeviceChoice::Simulated
+    if text == "sim" {
+        Ok(DeviceChoice::Simulated)
     } else {
-        DeviceChoice::Port(PathBuf::from(text))
-    })
+        crate::device::Address::parse(text).map(DeviceChoice::Device)
+    }
 }
 
 /// `--responder`: who answers.
@@ -204,7 +201,7 @@ enum Command {
     FirmwareQemu {
         /// The firmware: by default where `cargo build --release -p
         /// frictionlab-firmware --target thumbv7em-none-eabihf` puts it.
-        #[arg(long, default_value = crate::device::qemu::FIRMWARE_ELF)]
+        #[arg(long, default_value = crate::device::frictionlab::qemu::FIRMWARE_ELF)]
         elf: PathBuf,
         /// Also link the pseudo-terminal here (nothing may be there but a
         /// link to a pseudo-terminal, which is replaced): a path that stays
@@ -244,9 +241,15 @@ struct RunArgs {
     /// Results folder.
     #[arg(long)]
     out: PathBuf,
-    /// `sim` (the simulated apparatus) or a serial port path.
+    /// `sim` (the simulated apparatus), a serial port's path (frictionlab's
+    /// own board or emulator), or `KIND:TARGET` for another kind of device
+    /// (`frictionlab ports` lists them).
     #[arg(long, default_value = "sim", value_parser = parse_device)]
     device: DeviceChoice,
+    /// A device setting, `NAME=VALUE` (repeatable): the track and its wall,
+    /// a device's calibration (README, "Devices").
+    #[arg(long = "device-set", value_name = "NAME=VALUE")]
+    device_set: Vec<String>,
     /// Who answers: `gui` (a person) or `sim` (a simulated participant).
     #[arg(long, value_enum, default_value_t = ResponderChoice::Gui)]
     responder: ResponderChoice,
@@ -433,7 +436,12 @@ pub fn main() -> ExitCode {
     let result = match command {
         Command::Gui(args) => gui_command(args, None),
         Command::Validate { protocols } => validate_command(&protocols),
-        Command::Run(args) => run_command(&args),
+        Command::Run(mut args) => {
+            if let DeviceChoice::Device(address) = &mut args.device {
+                address.settings.set.clone_from(&args.device_set);
+            }
+            run_command(&args)
+        }
         Command::Simulate(args) => simulate_command(&args),
         Command::Analyze { dir, out, csv_only } => analyze_command(&dir, out.as_deref(), csv_only),
         Command::Power(args) => power_command(&args),
@@ -533,6 +541,9 @@ impl From<SessionError> for Failure {
             SessionError::Results(e) => e.into(),
             SessionError::NothingToResume { .. } | SessionError::Ended { .. } => {
                 vec![UserError::new("--resume", e.to_string())].into()
+            }
+            SessionError::Device(ref device, ref what) => {
+                vec![UserError::new("--device", format!("{device}: {what}"))].into()
             }
             SessionError::Lost { .. }
             | SessionError::NeverConnected { .. }

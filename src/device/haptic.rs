@@ -1,59 +1,41 @@
 //! The haptic loop: a dedicated thread that renders friction on a device at
-//! a fixed rate. It is a shell (it reads the clock and owns the port).
+//! a fixed rate. It is a shell (it reads the clock); the device is a
+//! [`Backend`] it drives, whichever it is.
 //!
-//! Each tick it reads what the port returned and updates the position and a
-//! velocity estimate (a 100 Hz low-pass of the position difference). It steps
-//! the current friction model and sends the force through the [`Link`]
-//! (`Command`, or `Hello` while not connected, so the device's watchdog zeroes
-//! the force), then reports the tick to the session. When the model changes,
-//! the force crossfades from the old model to the new over [`RAMP_S`]: no
-//! jumps.
+//! Each tick it reads the device and updates the hand's place along the
+//! device's [`Track`] and a velocity estimate (a 100 Hz low-pass of the
+//! position difference), and the same for the hand's offset across the
+//! track. It steps the current friction model along the track, adds the
+//! wall that holds the hand on the track (a device with more than one
+//! axis), and sends the force, its magnitude within the device's limit,
+//! then reports the tick to the session. When the model changes, the force
+//! crossfades from the old model to the new over [`RAMP_S`]: no jumps. A
+//! model force that is not a finite number sends zero and is counted
+//! ([`LoopStats::non_finite_forces`], the tick's `non_finite`).
+//!
+//! A device that renders models itself ([`super::backend::OnBoard`]) is
+//! told each model; while it renders one, its own ticks are the loop's.
 //!
 //! Timing: `spin_sleep` sleeps to each deadline (it sleeps natively, then
 //! spins only the last stretch); with `fifo` the thread asks for SCHED_FIFO
 //! and keeps running without it if refused. It never busy-spins without
 //! sleeping. The session talks to the loop through two lock-free ring
-//! buffers ([`rtrb`]). Nothing in the loop allocates: messages are encoded
-//! into stack buffers, models are plain values, and the period histogram is
-//! allocated before the loop starts.
-//!
-//! # On board (wire protocol v2)
-//! When the device states in its handshake that it renders a model on
-//! board at least at the model's rate, the loop does not step that model:
-//! it uploads it and selects it (`Upload`, `Select`; `Clear` for nothing),
-//! resending until the device's telemetry shows it in effect, and after a
-//! reconnect. Its ticks to the session are then the device's `Telemetry`,
-//! one per device tick, timed by the device's tick count, and it sends only
-//! `Heartbeat`s to feed the device's watchdog. A model the device does not
-//! render (or a version 1 device) is rendered by the loop itself as above,
-//! the device told to `Clear` its own.
+//! buffers ([`rtrb`]). Nothing in the loop allocates: models are plain
+//! values, and the period histogram is allocated before the loop starts.
 
-use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use super::link::{Incoming, Link, LinkState, OnBoard, Telemetry};
-use super::transport::Transport;
-use super::wire::{MAX_FRAME, Message, encode, status};
-use crate::friction::{Float, Input, ModelParams, StepParams};
+use super::backend::{Backend, LinkState, MAX_AXES, Vector};
+pub use super::backend::{Mode, Tick, UNKNOWN_RENDER};
+use super::track::Track;
+use crate::friction::{Input, ModelParams, StepParams};
+use crate::hand::HandDrive;
 use frictionlab_core::render::Renderer;
 
 pub use frictionlab_core::render::RAMP_S;
-
-/// The render label of a device that renders nothing it was told to (it
-/// restarted): rendering nothing.
-pub const UNKNOWN_RENDER: u32 = u32::MAX;
-
-/// How long the loop waits for telemetry to show a selected model before it
-/// uploads it again, s; each further resend of the same render waits twice
-/// as long, up to 8 times this (a slow link is not flooded with copies).
-const RESEND_AFTER_S: f64 = 0.050;
-
-/// How many labels the loop remembers: renders sent while the device has
-/// not yet caught up (a lagging link) keep their meaning.
-const LABELS: usize = 16;
 
 /// From the session to the loop.
 #[derive(Debug, Clone, PartialEq)]
@@ -67,75 +49,12 @@ pub enum ToLoop {
         /// The model, or nothing.
         model: Option<ModelParams>,
     },
-    /// Forward this message to the device (the emulator's hand drive).
-    Device(Message),
+    /// Drive the hand of an emulated device.
+    Hand(HandDrive),
     /// From now on, queue each connected tick's sample for the session's
     /// LSL device stream (issue 34): pushed off this thread, by the
     /// publisher's worker.
     Publish(crate::lsl::SampleTap),
-}
-
-/// From the loop to the session: one tick.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Tick {
-    /// Time since the loop started, s.
-    pub now_s: f64,
-    /// Position, m.
-    pub x_m: f64,
-    /// Velocity estimate, m/s.
-    pub v_m_s: f64,
-    /// Force sent, N.
-    pub force_n: f64,
-    /// Vibration drive sent.
-    pub vibration: f64,
-    /// Device button.
-    pub button: bool,
-    /// Link state.
-    pub link: LinkState,
-    /// The session's render in effect this tick.
-    pub render: u32,
-    /// Whether a render took effect at this tick (its model starting at
-    /// rest at this tick's position).
-    pub selected: bool,
-    /// Whether the device reported its watchdog tripped (it rendered
-    /// nothing): on board, at this tick; in the host loop, at the device's
-    /// last sample.
-    pub watchdog: bool,
-    /// The device's loop tick number, for a tick its telemetry reported
-    /// (on board): consecutive ticks of the device differ by one, whatever
-    /// the link's timing.
-    pub device_tick: Option<u32>,
-    /// Who rendered this tick.
-    pub mode: Mode,
-}
-
-impl Tick {
-    /// What the device reported at this tick.
-    #[must_use]
-    pub fn sample(&self) -> super::DeviceSample {
-        super::DeviceSample {
-            x_m: self.x_m,
-            v_m_s: self.v_m_s,
-            force_n: self.force_n,
-            vibration: self.vibration,
-        }
-    }
-}
-
-/// Who renders a tick's model.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Mode {
-    /// The host's loop, commanding force over the link.
-    Host,
-    /// The device itself, at `rate_hz` in `float`.
-    OnBoard {
-        /// On-board loop rate, Hz.
-        rate_hz: u16,
-        /// The float it computes in.
-        float: Float,
-        /// Its force limit, N.
-        limit_n: f32,
-    },
 }
 
 /// Timing and link statistics of a loop run.
@@ -180,6 +99,10 @@ pub struct LoopStats {
     /// Device ticks that missed their deadline (its `LoopReport`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub device_missed_ticks: Option<u32>,
+    /// Ticks whose model computed a force that was not a finite number
+    /// (zero was sent).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub non_finite_forces: Option<u64>,
 }
 
 /// A running haptic loop.
@@ -202,12 +125,12 @@ impl std::fmt::Debug for HapticLoop {
 const BINS: usize = 20_000;
 
 impl HapticLoop {
-    /// Starts the loop on the device at `path`, stepped by `step` (rate,
-    /// force limit, velocity filter), asking for SCHED_FIFO when `fifo`.
+    /// Starts the loop on `device`, stepped by `step` (rate, force limit,
+    /// velocity filter), asking for SCHED_FIFO when `fifo`.
     ///
     /// # Errors
     /// The thread could not be spawned.
-    pub fn start(path: PathBuf, step: StepParams, fifo: bool) -> std::io::Result<Self> {
+    pub fn start(device: Box<dyn Backend>, step: StepParams, fifo: bool) -> std::io::Result<Self> {
         let (to_loop, mut inbox) = rtrb::RingBuffer::<ToLoop>::new(256);
         let (mut outbox, from_loop) = rtrb::RingBuffer::<Tick>::new(16_384);
         let stop = Arc::new(AtomicBool::new(false));
@@ -226,7 +149,7 @@ impl HapticLoop {
                     )
                     .is_ok();
                 run(
-                    &path,
+                    device,
                     step,
                     &flag,
                     &mut inbox,
@@ -280,124 +203,17 @@ impl Drop for HapticLoop {
     }
 }
 
-/// What the loop knows of the device's on-board rendering.
-struct OnBoardState {
-    /// The session's render to render, and whether the device renders it.
-    wanted: (u32, Option<ModelParams>),
-    rendering: bool,
-    /// Labels sent lately and the renders they stand for, newest first
-    /// (a resend is not a new label).
-    labels: [(u8, u32); LABELS],
-    /// Resends of the wanted render so far.
-    resends: u32,
-    /// The render whose telemetry shows in effect on the device.
-    device_render: u32,
-    /// When the wanted render was last sent, if not yet in effect.
-    sent_s: Option<f64>,
-    /// Device tick and loop time of the first telemetry since connecting,
-    /// and the last tick seen.
-    anchor: Option<(u32, f64)>,
-    last_tick: Option<u32>,
-    last_now: f64,
-    ticks: u64,
-    gaps: u64,
-}
-
-impl OnBoardState {
-    fn new() -> Self {
-        OnBoardState {
-            wanted: (0, None),
-            rendering: false,
-            labels: [(0, UNKNOWN_RENDER); LABELS],
-            resends: 0,
-            device_render: UNKNOWN_RENDER,
-            sent_s: None,
-            anchor: None,
-            last_tick: None,
-            last_now: 0.0,
-            ticks: 0,
-            gaps: 0,
-        }
-    }
-
-    /// Whether the device renders `model` on board.
-    fn renders(on_board: Option<OnBoard>, model: Option<&ModelParams>) -> bool {
-        on_board.is_some_and(|o| {
-            model.is_none_or(|m| {
-                let kind = m.kind();
-                kind > 0
-                    && o.models & (1 << (kind - 1)) != 0
-                    && f64::from(o.loop_rate_hz) >= m.loop_rate_hz()
-            })
-        })
-    }
-
-    /// Sends the wanted render to the device (upload and select, or clear)
-    /// through `send`.
-    #[expect(clippy::cast_possible_truncation, reason = "labels wrap by design")]
-    fn send(&mut self, now_s: f64, model: Option<&ModelParams>, mut send: impl FnMut(Message)) {
-        let render = self.wanted.0;
-        let label = render as u8;
-        if self.labels[0] == (label, render) {
-            self.resends += 1;
-        } else {
-            self.labels.rotate_right(1);
-            self.labels[0] = (label, render);
-            self.resends = 0;
-        }
-        match model {
-            Some(m) => frictionlab_core::onboard::upload(m, label, &mut send),
-            None => send(Message::Clear { render: label }),
-        }
-        self.sent_s = Some(now_s);
-    }
-
-    /// Notes one telemetry: the render in effect, gaps, and its time on the
-    /// loop's clock (device ticks from an anchor, never going back).
-    fn observe(&mut self, t: &Telemetry, now_s: f64, dt: f64) -> f64 {
-        if let Some(&(_, render)) = self.labels.iter().find(|(l, _)| *l == t.render) {
-            self.device_render = render;
-            if render == self.wanted.0 {
-                self.sent_s = None;
-            }
-        } else {
-            self.device_render = UNKNOWN_RENDER;
-        }
-        if let Some(last) = self.last_tick {
-            self.gaps += u64::from(t.tick.wrapping_sub(last).saturating_sub(1));
-        }
-        self.last_tick = Some(t.tick);
-        self.ticks += 1;
-        let (tick0, t0) = *self.anchor.get_or_insert((t.tick, now_s));
-        let mut at = t0 + f64::from(t.tick.wrapping_sub(tick0)) * dt;
-        if (at - now_s).abs() > 0.1 {
-            // Restarted or drifted: anchor afresh.
-            self.anchor = Some((t.tick, now_s));
-            at = now_s;
-        }
-        at = at.max(self.last_now);
-        self.last_now = at;
-        at
-    }
-
-    /// How long after the last send of the wanted render to resend it, s.
-    fn resend_after(&self) -> f64 {
-        RESEND_AFTER_S * f64::from(1_u32 << self.resends.min(3))
-    }
-
-    /// Forgets the device's state (a new connection).
-    fn disconnected(&mut self) {
-        self.labels = [(0, UNKNOWN_RENDER); LABELS];
-        self.device_render = UNKNOWN_RENDER;
-        self.anchor = None;
-        self.last_tick = None;
-        self.sent_s = None;
-    }
-}
-
 /// Hands a tick to the session and, when publishing, its sample to the LSL
-/// stream (a connected tick only).
-fn emit(outbox: &mut rtrb::Producer<Tick>, lsl: Option<&crate::lsl::SampleTap>, tick: Tick) {
+/// stream (a connected tick only). Ticks' times never go back (`last_s`:
+/// the time of the last).
+fn emit(
+    outbox: &mut rtrb::Producer<Tick>,
+    lsl: Option<&crate::lsl::SampleTap>,
+    last_s: &mut f64,
+    mut tick: Tick,
+) {
+    tick.now_s = tick.now_s.max(*last_s);
+    *last_s = tick.now_s;
     if let Some(tap) = lsl
         && tick.link == LinkState::Connected
     {
@@ -419,13 +235,48 @@ fn emit(outbox: &mut rtrb::Producer<Tick>, lsl: Option<&crate::lsl::SampleTap>, 
     let _ = outbox.push(tick);
 }
 
+/// The hand's state along the track and across it.
+struct Motion {
+    along: f64,
+    v: f64,
+    offset: Vector,
+    offset_v: Vector,
+    previous: Option<(f64, Vector)>,
+}
+
+impl Motion {
+    /// Notes where the hand is now (`connected`: the reading is fresh).
+    fn update(&mut self, track: &Track, p: Vector, connected: bool, alpha: f64, dt: f64) {
+        let (along, offset) = track.split(p);
+        if connected {
+            if let Some((a0, o0)) = self.previous {
+                self.v = crate::friction::filtered_velocity(alpha, self.v, (along - a0) / dt);
+                for i in 0..MAX_AXES {
+                    self.offset_v[i] = crate::friction::filtered_velocity(
+                        alpha,
+                        self.offset_v[i],
+                        (offset[i] - o0[i]) / dt,
+                    );
+                }
+            }
+            self.previous = Some((along, offset));
+        } else {
+            self.previous = None;
+            self.v = 0.0;
+            self.offset_v = [0.0; MAX_AXES];
+        }
+        self.along = along;
+        self.offset = offset;
+    }
+}
+
 /// The loop body; returns its statistics when `stop` is set.
 #[expect(
     clippy::too_many_lines,
     reason = "one tick of the loop reads best in one place"
 )]
 fn run(
-    path: &std::path::Path,
+    mut device: Box<dyn Backend>,
     step: StepParams,
     stop: &AtomicBool,
     inbox: &mut rtrb::Consumer<ToLoop>,
@@ -433,24 +284,24 @@ fn run(
     sched_fifo: bool,
     start: Instant,
 ) -> LoopStats {
-    let mut transport = Transport::new(path);
-    let mut link = Link::new();
-    let (rate_hz, limit) = (step.rate_hz, step.force_limit);
+    let rate_hz = step.rate_hz;
     let period = Duration::from_secs_f64(step.dt());
     let dt = period.as_secs_f64();
     let alpha = step.velocity_alpha(dt);
+    let track = device.track();
     let mut histogram = vec![0_u32; BINS + 1];
     let (mut ticks, mut missed, mut max_late) = (0_u64, 0_u64, 0.0_f64);
-    let mut renderer = Renderer::<f64>::new(limit, RAMP_S);
+    let (mut non_finite, mut last_s) = (0_u64, 0.0_f64);
+    let mut renderer = Renderer::<f64>::new(step.force_limit, RAMP_S);
     let mut host_render = 0_u32;
     let mut host_selected = false;
-    let mut device_watchdog = false;
-    let mut board = OnBoardState::new();
-    let mut was_connected = false;
-    let mut telemetry: Vec<Telemetry> = Vec::with_capacity(64);
-    let (mut x, mut x_prev, mut v, mut button) = (0.0_f64, None::<f64>, 0.0_f64, false);
-    let mut bytes = [0_u8; 1024];
-    let mut frame = [0_u8; MAX_FRAME];
+    let mut motion = Motion {
+        along: 0.0,
+        v: 0.0,
+        offset: [0.0; MAX_AXES],
+        offset_v: [0.0; MAX_AXES],
+        previous: None,
+    };
     let mut deadline = Instant::now() + period;
     let mut lsl: Option<crate::lsl::SampleTap> = None;
     while !stop.load(Ordering::Relaxed) {
@@ -474,187 +325,82 @@ fn run(
         }
         ticks += 1;
         let now = woke.duration_since(start).as_secs_f64();
-        let n = transport.read(&mut bytes);
-        let mut write = |m: Message| {
-            if let Ok(len) = encode(&m, &mut frame) {
-                transport.write(&frame[..len]);
-            }
-        };
 
         // Device -> host.
-        telemetry.clear();
-        link.receive(now, &bytes[..n], |incoming| match incoming {
-            Incoming::Sample(s) => {
-                x = s.x_m;
-                button = s.button;
-                device_watchdog = s.status & status::WATCHDOG != 0;
-            }
-            Incoming::Telemetry(t) => {
-                x = t.x_m;
-                button = t.flags & status::BUTTON != 0;
-                if telemetry.len() < telemetry.capacity() {
-                    telemetry.push(t);
-                }
-            }
-        });
-        let link_state = link.state(now);
-        let connected = link_state == LinkState::Connected;
-        let on_board = link.on_board();
-        let mut sent = false;
-        if connected && !was_connected {
-            // A new connection: the device has nothing of ours.
-            board.disconnected();
-            if on_board.is_some() {
-                write(Message::SetTelemetry { every: 1 });
-                board.rendering = OnBoardState::renders(on_board, board.wanted.1.as_ref());
-                if board.rendering {
-                    let wanted = board.wanted.1.clone();
-                    board.send(now, wanted.as_ref(), &mut write);
-                }
-                sent = true;
-            }
-        }
-        was_connected = connected;
-        if connected {
-            let raw = x_prev.map_or(0.0, |p| (x - p) / dt);
-            v = crate::friction::filtered_velocity(alpha, v, raw);
-            x_prev = Some(x);
-        } else {
-            x_prev = None;
-            v = 0.0;
-        }
+        let reading = device.read(now);
+        let connected = reading.link == LinkState::Connected;
+        motion.update(&track, reading.position_m, connected, alpha, dt);
 
         // Session -> loop.
         while let Ok(m) = inbox.pop() {
             match m {
                 ToLoop::Model { render, model } => {
-                    board.rendering = OnBoardState::renders(on_board, model.as_ref());
-                    board.wanted = (render, model.clone());
-                    if board.rendering {
-                        renderer.select(None, x);
-                    } else {
-                        renderer.select(model.as_ref(), x);
-                    }
+                    let on_board_renders = device
+                        .on_board()
+                        .is_some_and(|b| b.select(now, render, model.as_ref()));
+                    let host_model = model.as_ref().filter(|_| !on_board_renders);
+                    renderer.select(host_model, motion.along);
                     host_render = render;
                     host_selected = true;
-                    if connected && on_board.is_some() {
-                        // On board: this model; host-rendered: nothing of
-                        // the device's own.
-                        board.send(now, model.as_ref().filter(|_| board.rendering), &mut write);
-                        sent = true;
-                    }
                 }
-                ToLoop::Device(message) => write(message),
+                ToLoop::Hand(drive) => device.drive_hand(&drive),
                 ToLoop::Publish(tap) => lsl = Some(tap),
             }
         }
 
-        if board.rendering && on_board.is_some() {
-            // The device renders: its telemetry are the ticks.
-            let mode = Mode::OnBoard {
-                rate_hz: on_board.map_or(0, |o| o.loop_rate_hz),
-                float: if on_board.is_some_and(|o| o.float_bytes == 4) {
-                    Float::F32
-                } else {
-                    Float::F64
-                },
-                #[expect(clippy::cast_possible_truncation, reason = "the wire's f32")]
-                limit_n: link.capabilities().map_or(0.0, |c| c.max_force_n as f32),
-            };
-            let device_dt = 1.0 / f64::from(on_board.map_or(1, |o| o.loop_rate_hz.max(1)));
-            for t in &telemetry {
-                let at = board.observe(t, now, device_dt);
-                emit(
-                    outbox,
-                    lsl.as_ref(),
-                    Tick {
-                        now_s: at,
-                        x_m: t.x_m,
-                        v_m_s: t.v_m_s,
-                        force_n: t.force_n,
-                        vibration: t.vibration,
-                        button: t.flags & status::BUTTON != 0,
-                        link: link_state,
-                        render: board.device_render,
-                        selected: t.flags & status::SELECTED != 0,
-                        watchdog: t.flags & status::WATCHDOG != 0,
-                        device_tick: Some(t.tick),
-                        mode,
-                    },
-                );
-            }
-            // Resend only after this tick's telemetry is seen: after a stall
-            // it may already show the select in effect.
-            if connected
-                && board
-                    .sent_s
-                    .is_some_and(|t| now - t >= board.resend_after())
-            {
-                let wanted = board.wanted.1.clone();
-                board.send(now, wanted.as_ref(), &mut write);
-                sent = true;
-            }
-            if let Some(m) = link.heartbeat(now, sent) {
-                write(m);
-            }
-            if !connected {
-                emit(
-                    outbox,
-                    lsl.as_ref(),
-                    Tick {
-                        now_s: now.max(board.last_now),
-                        x_m: x,
-                        v_m_s: 0.0,
-                        force_n: 0.0,
-                        vibration: 0.0,
-                        button: false,
-                        link: link_state,
-                        render: UNKNOWN_RENDER,
-                        selected: false,
-                        watchdog: false,
-                        device_tick: None,
-                        mode,
-                    },
-                );
-            }
+        if let Some(board) = device.on_board()
+            && board.ticks(now, &reading, &mut |tick| {
+                emit(outbox, lsl.as_ref(), &mut last_s, tick);
+            })
+        {
             continue;
-        }
-        for t in &telemetry {
-            board.observe(t, now, dt);
         }
 
         // Render on the host, crossfading after a model change.
-        let out = renderer.step(dt, Input { x_m: x, v_m_s: v });
-        let force = if connected { out.force_n } else { 0.0 };
-        let vibration = out.vibration;
-        if let Some(m) = link.transmit(now, force, vibration) {
-            write(m);
+        let out = renderer.step(
+            dt,
+            Input {
+                x_m: motion.along,
+                v_m_s: motion.v,
+            },
+        );
+        let finite = out.force_n.is_finite() && out.vibration.is_finite();
+        if !finite {
+            non_finite += 1;
         }
+        let (along_n, vibration) = if connected && finite {
+            (out.force_n, out.vibration)
+        } else {
+            (0.0, 0.0)
+        };
+        let force = if connected {
+            let limit = device
+                .capabilities()
+                .force_limit_n
+                .min(step.force_limit.newtons());
+            track.force(along_n, motion.offset, motion.offset_v, limit)
+        } else {
+            [0.0; MAX_AXES]
+        };
+        device.send_force(now, force, vibration);
         emit(
             outbox,
             lsl.as_ref(),
+            &mut last_s,
             Tick {
-                now_s: now.max(board.last_now),
-                x_m: x,
-                v_m_s: v,
-                force_n: force,
-                vibration,
-                button,
-                link: link_state,
+                button: reading.button,
+                link: reading.link,
                 render: host_render,
                 selected: std::mem::take(&mut host_selected),
-                watchdog: device_watchdog,
-                device_tick: None,
-                mode: Mode::Host,
+                watchdog: reading.watchdog,
+                position_m: reading.position_m,
+                force_vector_n: force,
+                non_finite: !finite,
+                ..Tick::on_axis(now, motion.along, motion.v, along_n, vibration)
             },
         );
     }
-    // Zero the force on the way out.
-    if let Some(m) = link.transmit(start.elapsed().as_secs_f64(), 0.0, 0.0)
-        && let Ok(len) = encode(&m, &mut frame)
-    {
-        transport.write(&frame[..len]);
-    }
+    device.close();
     let percentile = |q: f64| {
         #[expect(
             clippy::cast_possible_truncation,
@@ -671,7 +417,7 @@ fn run(
         }
         BINS as f64
     };
-    let stats = link.stats();
+    let stats = device.stats();
     LoopStats {
         rate_hz,
         ticks,
@@ -680,60 +426,12 @@ fn run(
         period_error_max_us: max_late,
         missed_deadlines: missed,
         crc_errors: stats.crc_errors,
-        resyncs: stats.resyncs(),
+        resyncs: stats.resyncs,
         sched_fifo,
-        on_board_ticks: (board.ticks > 0).then_some(board.ticks),
-        telemetry_gaps: (board.ticks > 0).then_some(board.gaps),
-        device_longest_loop_us: (board.ticks > 0).then(|| link.device_loop().longest_loop_us),
-        device_missed_ticks: (board.ticks > 0).then(|| link.device_loop().missed_ticks),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn telemetry(tick: u32, render: u8) -> Telemetry {
-        Telemetry {
-            tick,
-            x_m: 0.0,
-            v_m_s: 0.0,
-            force_n: 0.0,
-            vibration: 0.0,
-            render,
-            flags: 0,
-        }
-    }
-
-    /// Over a link that lags (QEMU's UART on a loaded machine lagged
-    /// 200 ms), the loop resends a render the device has not yet shown in
-    /// effect: ever less often, and without forgetting what the labels
-    /// sent before it stand for.
-    #[test]
-    fn resends_back_off_and_keep_the_labels_sent_before() {
-        let mut board = OnBoardState::new();
-        let model = ModelParams::default_for("karnopp").unwrap();
-        let mut sent = 0;
-        board.wanted = (18, Some(model.clone()));
-        board.send(0.0, Some(&model), |_| sent += 1);
-        board.wanted = (19, None);
-        board.send(0.01, None, |_| sent += 1);
-        let mut waits = Vec::new();
-        for k in 0..6 {
-            waits.push(board.resend_after());
-            board.send(0.1 * f64::from(k), None, |_| sent += 1);
-        }
-        assert_eq!(waits, [0.05, 0.1, 0.2, 0.4, 0.4, 0.4]);
-        assert!(sent > 7);
-        // The device still shows label 18, then takes 19.
-        board.observe(&telemetry(1, 18), 0.6, 0.0002);
-        assert_eq!(board.device_render, 18, "label 18 still means render 18");
-        assert!(board.sent_s.is_some(), "19 not in effect yet");
-        board.observe(&telemetry(2, 19), 0.6, 0.0002);
-        assert_eq!((board.device_render, board.sent_s), (19, None));
-        // A new render starts the backoff afresh.
-        board.wanted = (20, None);
-        board.send(0.7, None, |_| {});
-        assert_eq!(board.resend_after(), 0.05);
+        on_board_ticks: stats.on_board_ticks,
+        telemetry_gaps: stats.telemetry_gaps,
+        device_longest_loop_us: stats.device_longest_loop_us,
+        device_missed_ticks: stats.device_missed_ticks,
+        non_finite_forces: (non_finite > 0).then_some(non_finite),
     }
 }

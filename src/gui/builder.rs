@@ -356,7 +356,7 @@ impl BuilderPanel {
 fn device_name(device: &DeviceChoice) -> String {
     match device {
         DeviceChoice::Simulated => "simulated".to_owned(),
-        DeviceChoice::Port(p) => p.display().to_string(),
+        DeviceChoice::Device(a) => a.to_string(),
     }
 }
 

@@ -4,12 +4,12 @@
 //! Start and Resume buttons. It draws its state and returns [`Command`]s;
 //! the app applies them after the frame, through the methods here.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use eframe::egui::{self, RichText};
 
 use super::{Command, ERROR_RED, Launch};
-use crate::device::PortInfo;
+use crate::device::Address;
 use crate::kinds::{Protocol, Registry};
 use crate::protocol::{SHIPPED, load};
 use crate::results::{ResultsDir, check_participant, read_log};
@@ -67,7 +67,7 @@ pub(super) struct SetupPanel {
     out: String,
     seed: String,
     device: DeviceChoice,
-    ports: Result<Vec<PortInfo>, String>,
+    ports: Vec<(&'static crate::device::Kind, crate::device::Found)>,
     /// Recomputed when protocol, folder or participant change.
     sessions: Option<SessionsInfo>,
     /// Counterbalancing index given on the command line.
@@ -91,7 +91,7 @@ impl SetupPanel {
             out: launch.out.display().to_string(),
             seed: String::new(),
             device: launch.device,
-            ports: crate::device::list_ports(),
+            ports: crate::device::find_all(),
             sessions: None,
             participant_index: None,
             lsl: launch.lsl.is_some(),
@@ -189,7 +189,7 @@ impl SetupPanel {
 
     /// Lists the serial ports again.
     pub(super) fn refresh_ports(&mut self) {
-        self.ports = crate::device::list_ports();
+        self.ports = crate::device::find_all();
     }
 
     /// Forgets the participant's sessions, so they are listed again (a
@@ -213,10 +213,11 @@ impl SetupPanel {
         if let Err(m) = self.parsed_seed() {
             problems.push(m);
         }
-        if let DeviceChoice::Port(p) = &self.device
-            && p.as_os_str().is_empty()
+        if let DeviceChoice::Device(a) = &self.device
+            && a.target.is_empty()
+            && a.kind().bare
         {
-            problems.push("choose a serial port".to_owned());
+            problems.push("choose a device".to_owned());
         }
         problems
     }
@@ -450,48 +451,38 @@ impl SetupPanel {
                 "Simulated device (the mouse is the hand)",
             );
             ui.horizontal(|ui| {
-                let on_port = matches!(self.device, DeviceChoice::Port(_));
-                if ui.radio(on_port, "Serial port").clicked() && !on_port {
-                    let first = self
-                        .ports
-                        .as_ref()
-                        .ok()
-                        .and_then(|p| p.first())
-                        .map(|p| PathBuf::from(&p.path))
-                        .unwrap_or_default();
-                    self.device = DeviceChoice::Port(first);
+                let on_port = matches!(self.device, DeviceChoice::Device(_));
+                if ui.radio(on_port, "Device").clicked() && !on_port {
+                    self.device = DeviceChoice::Device(
+                        self.ports
+                            .first()
+                            .map_or_else(|| Address::port(Path::new("")), |(k, f)| address(k, f)),
+                    );
                 }
                 let current = match &self.device {
-                    DeviceChoice::Port(p) => p.display().to_string(),
+                    DeviceChoice::Device(a) => a.to_string(),
                     DeviceChoice::Simulated => String::new(),
                 };
-                egui::ComboBox::from_label("port")
+                egui::ComboBox::from_label("device")
                     .selected_text(if current.is_empty() {
                         "(none)".into()
                     } else {
                         current
                     })
                     .show_ui(ui, |ui| {
-                        if let Ok(ports) = &self.ports {
-                            for p in ports {
-                                let text = format!("{}  {}", p.path, p.kind);
-                                if ui.selectable_label(false, text).clicked() {
-                                    self.device = DeviceChoice::Port(PathBuf::from(&p.path));
-                                }
+                        for (kind, found) in &self.ports {
+                            let a = address(kind, found);
+                            let text = format!("{a}  {}", found.what);
+                            if ui.selectable_label(false, text).clicked() {
+                                self.device = DeviceChoice::Device(a);
                             }
                         }
                     });
-                if ui.button("Refresh ports").clicked() {
+                if ui.button("Refresh devices").clicked() {
                     commands.push(Command::RefreshPorts);
                 }
-                match &self.ports {
-                    Ok(p) if p.is_empty() => {
-                        ui.label(RichText::new("no serial ports found").weak());
-                    }
-                    Ok(_) => {}
-                    Err(e) => {
-                        ui.label(RichText::new(format!("cannot list ports: {e}")).weak());
-                    }
+                if self.ports.is_empty() {
+                    ui.label(RichText::new("no devices found").weak());
                 }
             });
             ui.checkbox(
@@ -544,6 +535,15 @@ impl SetupPanel {
                 ui.label(RichText::new(format!("To start: {}.", problems.join("; "))).weak());
             }
         });
+    }
+}
+
+/// The address of a device found.
+fn address(kind: &'static crate::device::Kind, found: &crate::device::Found) -> Address {
+    Address {
+        kind: kind.name,
+        target: found.address.clone(),
+        settings: crate::device::Settings::default(),
     }
 }
 

@@ -4,8 +4,8 @@
 
 use std::collections::VecDeque;
 
+use crate::device::LinkState;
 use crate::device::haptic::{HapticLoop, LoopStats, Mode, Tick, ToLoop};
-use crate::device::link::LinkState;
 use crate::device::sim::SimDevice;
 use crate::friction::ModelParams;
 use crate::hand::HandDrive;
@@ -128,18 +128,17 @@ impl Port {
     /// the last: the wire carries the segment that way (only the emulator
     /// has a hand to drive; real firmware ignores the message).
     pub(super) fn drive_hand(&mut self, now_s: f64, drive: &HandDrive) {
-        use crate::device::wire::hand_drive;
         let new_segment = self.hand_segment.replace(drive.segment) != Some(drive.segment);
         if new_segment {
             let relaxed = HandDrive {
                 integral_gain: 0.0,
                 ..*drive
             };
-            self.haptic.send(ToLoop::Device(hand_drive(&relaxed)));
+            self.haptic.send(ToLoop::Hand(relaxed));
         }
         if new_segment || now_s - self.last_hand_s >= HAND_EVERY_S {
             self.last_hand_s = now_s;
-            self.haptic.send(ToLoop::Device(hand_drive(drive)));
+            self.haptic.send(ToLoop::Hand(*drive));
         }
     }
 }
@@ -179,13 +178,16 @@ impl Device {
                     render: 0,
                 }
             }
-            super::DeviceChoice::Port(path) => {
+            super::DeviceChoice::Device(address) => {
                 let step = StepParams {
                     rate_hz,
                     ..StepParams::default()
                 };
-                let haptic = HapticLoop::start(path.clone(), step, true)
-                    .map_err(super::SessionError::Loop)?;
+                let backend = address
+                    .open()
+                    .map_err(|e| super::SessionError::Device(address.to_string(), e))?;
+                let haptic =
+                    HapticLoop::start(backend, step, true).map_err(super::SessionError::Loop)?;
                 Device::Port(Box::new(Port::new(
                     haptic,
                     rate_hz,

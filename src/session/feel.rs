@@ -4,7 +4,7 @@
 //! while the experimenter's own hand explores it. Nothing is logged.
 
 use crate::device::DeviceSample;
-use crate::device::link::LinkState;
+use crate::device::LinkState;
 use crate::friction::ModelParams;
 use crate::time::Time;
 

@@ -94,7 +94,7 @@ pub use responder::{
 pub use view::{Phase, Progress, TRACE_EVERY_S, TRACE_LENGTH_S, TracePoint, View};
 
 use crate::device::DeviceSample;
-use crate::device::link::LinkState;
+use crate::device::LinkState;
 use crate::friction::ModelParams;
 use crate::kinds::{Action, Engine, Header, LogLine, ReadLog, Registry};
 use crate::protocol::engine::TrialSource;
@@ -156,6 +156,9 @@ pub enum SessionError {
         /// The timeout, s.
         timeout_s: f64,
     },
+    /// The device could not be opened (nothing written).
+    #[error("--device: {0}: {1}")]
+    Device(String, String),
     /// The haptic loop could not start.
     #[error("cannot start the haptic loop: {0}")]
     Loop(std::io::Error),

@@ -25,17 +25,23 @@ use crate::time::Time;
 pub enum DeviceChoice {
     /// The simulated apparatus, stepped in session time.
     Simulated,
-    /// A haptic device on this serial port (or the emulator's pty).
-    Port(PathBuf),
+    /// A haptic device (a port, an emulator's pty, a service).
+    Device(crate::device::Address),
 }
 
 impl DeviceChoice {
-    /// As logged: `sim` or the port's path.
+    /// Our own board (or its emulator) on the port at `path`.
+    #[must_use]
+    pub fn port(path: impl AsRef<std::path::Path>) -> Self {
+        DeviceChoice::Device(crate::device::Address::port(path.as_ref()))
+    }
+
+    /// As logged: `sim`, or the device as `--device` names it.
     #[must_use]
     pub fn label(&self) -> String {
         match self {
             DeviceChoice::Simulated => "sim".into(),
-            DeviceChoice::Port(p) => p.display().to_string(),
+            DeviceChoice::Device(a) => a.to_string(),
         }
     }
 }

@@ -387,6 +387,27 @@ impl Rig {
         self.click |= click;
     }
 
+    /// Puts the apparatus at rest at `x_m`.
+    pub fn place(&mut self, x_m: f64) {
+        self.device.reset(x_m);
+        self.x_m = x_m;
+        self.v_m_s = 0.0;
+    }
+
+    /// From now on the hand follows `drive` (its own segment number: a new
+    /// one restarts the hand's integral). Non-finite values read as 0.
+    pub fn drive(&mut self, drive: HandDrive) {
+        let finite = |x: f64| if x.is_finite() { x } else { 0.0 };
+        self.drive = HandDrive {
+            x_m: finite(drive.x_m),
+            v_m_s: finite(drive.v_m_s),
+            stiffness_n_m: finite(drive.stiffness_n_m),
+            damping_n_s_m: finite(drive.damping_n_s_m),
+            integral_gain: finite(drive.integral_gain),
+            segment: drive.segment,
+        };
+    }
+
     /// Advances by `dt`: the hand pushes, and the motor applies the force
     /// `firmware` computes from what the device sensed (already limited).
     pub fn step(&mut self, dt: f64, firmware: impl FnOnce(Sensed) -> f64) -> DeviceSample {

@@ -115,16 +115,7 @@ pub struct Sample {
     pub ack_seq: u32,
 }
 
-/// The link's state.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum LinkState {
-    /// Sending `Hello`, no answer yet.
-    Connecting,
-    /// Handshake done, frames arriving.
-    Connected,
-    /// Was connected; no valid frame for [`LOST_AFTER_S`].
-    Lost,
-}
+pub use crate::device::backend::LinkState;
 
 /// The host's link to a device.
 #[derive(Debug, Clone, Default)]

@@ -1,0 +1,509 @@
+//! frictionlab's own device: a board speaking our serial wire protocol
+//! ([`wire`], `docs/wire-protocol.md`), its host side ([`link`], sans-IO),
+//! the serial port that carries it ([`transport`]), the emulator that
+//! speaks it ([`emulator`]) and the firmware on QEMU ([`qemu`]).
+//!
+//! [`Port`] is the backend the haptic loop drives: a one-axis device that
+//! takes a force per tick (wire protocol v1 and v2), or renders a model on
+//! board and streams its ticks as telemetry (v2).
+//!
+//! # On board (wire protocol v2)
+//! When the device states in its handshake that it renders a model on
+//! board at least at the model's rate, the loop does not step that model:
+//! [`Port`] uploads it and selects it (`Upload`, `Select`; `Clear` for
+//! nothing), resending until the device's telemetry shows it in effect,
+//! and after a reconnect. Its ticks to the session are then the device's
+//! `Telemetry`, one per device tick, timed by the device's tick count, and
+//! it sends only `Heartbeat`s to feed the device's watchdog. A model the
+//! device does not render (or a version 1 device) is rendered by the loop,
+//! the device told to `Clear` its own.
+
+pub mod emulator;
+pub mod link;
+pub mod qemu;
+pub mod wire;
+
+use std::path::Path;
+
+use self::link::{Incoming, Link, Telemetry};
+use self::wire::{MAX_FRAME, Message, encode, status};
+use super::backend::{
+    Backend, Capabilities, LinkState, LinkStats, Mode, Reading, Tick, UNKNOWN_RENDER, Vector,
+};
+use crate::device::transport::Transport;
+use crate::friction::{Float, ModelParams};
+use crate::hand::HandDrive;
+
+/// The device kind, as listed in [`super::KINDS`]: a bare path is one.
+pub const KIND: super::Kind = super::Kind {
+    name: "frictionlab",
+    about: "frictionlab's own board (or `frictionlab device-emulator`) on a serial port",
+    target: "PATH",
+    bare: true,
+    check,
+    open,
+    find,
+};
+
+fn check(target: &str) -> Result<(), String> {
+    super::check_port(Path::new(target))
+}
+
+fn open(target: &str, _settings: &super::Settings) -> Result<Box<dyn Backend>, String> {
+    check(target)?;
+    Ok(Box::new(Port::new(Path::new(target))))
+}
+
+fn find() -> Vec<super::Found> {
+    super::list_ports()
+        .unwrap_or_default()
+        .into_iter()
+        .map(|p| super::Found {
+            address: p.path,
+            what: p.kind,
+        })
+        .collect()
+}
+
+/// How long the loop waits for telemetry to show a selected model before it
+/// uploads it again, s; each further resend of the same render waits twice
+/// as long, up to 8 times this (a slow link is not flooded with copies).
+const RESEND_AFTER_S: f64 = 0.050;
+
+/// How many labels the loop remembers: renders sent while the device has
+/// not yet caught up (a lagging link) keep their meaning.
+const LABELS: usize = 16;
+
+/// Telemetry kept per loop tick.
+const TELEMETRY_PER_TICK: usize = 64;
+
+/// A frictionlab board on a serial port, reopened when it goes away.
+#[expect(
+    clippy::struct_excessive_bools,
+    reason = "the device's flags and the link's, each its own"
+)]
+pub struct Port {
+    transport: Transport,
+    link: Link,
+    bytes: [u8; 1024],
+    frame: [u8; MAX_FRAME],
+    x_m: f64,
+    /// The time of the last read, s.
+    now_s: f64,
+    button: bool,
+    watchdog: bool,
+    was_connected: bool,
+    /// Something was sent this tick (no heartbeat needed).
+    sent: bool,
+    telemetry: Vec<Telemetry>,
+    board: OnBoardState,
+}
+
+impl std::fmt::Debug for Port {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Port")
+            .field("transport", &self.transport)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Port {
+    /// The board at `path` (opened on the first tick, reopened after).
+    #[must_use]
+    pub fn new(path: &Path) -> Self {
+        Port {
+            transport: Transport::new(path),
+            link: Link::new(),
+            bytes: [0; 1024],
+            frame: [0; MAX_FRAME],
+            x_m: 0.0,
+            now_s: 0.0,
+            button: false,
+            watchdog: false,
+            was_connected: false,
+            sent: false,
+            telemetry: Vec::with_capacity(TELEMETRY_PER_TICK),
+            board: OnBoardState::new(),
+        }
+    }
+
+    fn write(transport: &mut Transport, frame: &mut [u8; MAX_FRAME], m: &Message) {
+        if let Ok(len) = encode(m, frame) {
+            transport.write(&frame[..len]);
+        }
+    }
+
+    fn mode(&self) -> Mode {
+        let on_board = self.link.on_board();
+        Mode::OnBoard {
+            rate_hz: on_board.map_or(0, |o| o.loop_rate_hz),
+            float: if on_board.is_some_and(|o| o.float_bytes == 4) {
+                Float::F32
+            } else {
+                Float::F64
+            },
+            #[expect(clippy::cast_possible_truncation, reason = "the wire's f32")]
+            limit_n: self
+                .link
+                .capabilities()
+                .map_or(0.0, |c| c.max_force_n as f32),
+        }
+    }
+}
+
+impl Backend for Port {
+    fn capabilities(&self) -> Capabilities {
+        Capabilities {
+            axes: 1,
+            vertical_axis: None,
+            force_limit_n: self
+                .link
+                .capabilities()
+                .map_or(crate::device::sim::Apparatus::default().max_force_n, |c| {
+                    c.max_force_n
+                }),
+            max_rate_hz: f64::INFINITY,
+            on_board: self.link.on_board().is_some(),
+        }
+    }
+
+    fn read(&mut self, now_s: f64) -> Reading {
+        self.sent = false;
+        self.now_s = now_s;
+        let n = self.transport.read(&mut self.bytes);
+        self.telemetry.clear();
+        let (x, button, watchdog, telemetry) = (
+            &mut self.x_m,
+            &mut self.button,
+            &mut self.watchdog,
+            &mut self.telemetry,
+        );
+        self.link
+            .receive(now_s, &self.bytes[..n], |incoming| match incoming {
+                Incoming::Sample(s) => {
+                    *x = s.x_m;
+                    *button = s.button;
+                    *watchdog = s.status & status::WATCHDOG != 0;
+                }
+                Incoming::Telemetry(t) => {
+                    *x = t.x_m;
+                    *button = t.flags & status::BUTTON != 0;
+                    if telemetry.len() < telemetry.capacity() {
+                        telemetry.push(t);
+                    }
+                }
+            });
+        let link = self.link.state(now_s);
+        let connected = link == LinkState::Connected;
+        let on_board = self.link.on_board();
+        if connected && !self.was_connected {
+            // A new connection: the device has nothing of ours.
+            self.board.disconnected();
+            if on_board.is_some() {
+                Self::write(
+                    &mut self.transport,
+                    &mut self.frame,
+                    &Message::SetTelemetry { every: 1 },
+                );
+                self.board.rendering =
+                    OnBoardState::renders(on_board, self.board.wanted.1.as_ref());
+                if self.board.rendering {
+                    let wanted = self.board.wanted.1.clone();
+                    let (t, f) = (&mut self.transport, &mut self.frame);
+                    self.board
+                        .send(now_s, wanted.as_ref(), |m| Self::write(t, f, &m));
+                }
+                self.sent = true;
+            }
+        }
+        self.was_connected = connected;
+        Reading {
+            link,
+            position_m: [self.x_m, 0.0, 0.0],
+            button: self.button,
+            watchdog: self.watchdog,
+        }
+    }
+
+    fn send_force(&mut self, now_s: f64, force_n: Vector, vibration: f64) {
+        if let Some(m) = self.link.transmit(now_s, force_n[0], vibration) {
+            Self::write(&mut self.transport, &mut self.frame, &m);
+        }
+    }
+
+    fn close(&mut self) {
+        // Zero the force on the way out.
+        if let Some(m) = self.link.transmit(self.now_s, 0.0, 0.0) {
+            Self::write(&mut self.transport, &mut self.frame, &m);
+        }
+    }
+
+    fn drive_hand(&mut self, drive: &HandDrive) {
+        Self::write(
+            &mut self.transport,
+            &mut self.frame,
+            &wire::hand_drive(drive),
+        );
+    }
+
+    fn on_board(&mut self) -> Option<&mut dyn super::backend::OnBoard> {
+        Some(self)
+    }
+
+    fn stats(&self) -> LinkStats {
+        let stats = self.link.stats();
+        let board = (self.board.ticks > 0).then_some(());
+        LinkStats {
+            crc_errors: stats.crc_errors,
+            resyncs: stats.resyncs(),
+            on_board_ticks: board.map(|()| self.board.ticks),
+            telemetry_gaps: board.map(|()| self.board.gaps),
+            device_longest_loop_us: board.map(|()| self.link.device_loop().longest_loop_us),
+            device_missed_ticks: board.map(|()| self.link.device_loop().missed_ticks),
+        }
+    }
+}
+
+impl super::backend::OnBoard for Port {
+    fn select(&mut self, now_s: f64, render: u32, model: Option<&ModelParams>) -> bool {
+        let on_board = self.link.on_board();
+        self.board.rendering = OnBoardState::renders(on_board, model);
+        self.board.wanted = (render, model.cloned());
+        if self.link.state(now_s) == LinkState::Connected && on_board.is_some() {
+            // On board: this model; host-rendered: nothing of the device's
+            // own.
+            let rendering = self.board.rendering;
+            let (t, f) = (&mut self.transport, &mut self.frame);
+            self.board.send(now_s, model.filter(|_| rendering), |m| {
+                Self::write(t, f, &m);
+            });
+            self.sent = true;
+        }
+        self.board.rendering
+    }
+
+    fn ticks(&mut self, now_s: f64, reading: &Reading, emit: &mut dyn FnMut(Tick)) -> bool {
+        let on_board = self.link.on_board();
+        if !(self.board.rendering && on_board.is_some()) {
+            // The loop renders; the telemetry still keeps the device's
+            // render and clock known.
+            let dt = 1.0 / f64::from(on_board.map_or(1, |o| o.loop_rate_hz.max(1)));
+            for t in &self.telemetry {
+                self.board.observe(t, now_s, dt);
+            }
+            return false;
+        }
+        // The device renders: its telemetry are the ticks.
+        let mode = self.mode();
+        let connected = reading.link == LinkState::Connected;
+        let device_dt = 1.0 / f64::from(on_board.map_or(1, |o| o.loop_rate_hz.max(1)));
+        for t in &self.telemetry {
+            let at = self.board.observe(t, now_s, device_dt);
+            emit(Tick {
+                button: t.flags & status::BUTTON != 0,
+                link: reading.link,
+                render: self.board.device_render,
+                selected: t.flags & status::SELECTED != 0,
+                watchdog: t.flags & status::WATCHDOG != 0,
+                device_tick: Some(t.tick),
+                mode,
+                ..Tick::on_axis(at, t.x_m, t.v_m_s, t.force_n, t.vibration)
+            });
+        }
+        // Resend only after this tick's telemetry is seen: after a stall it
+        // may already show the select in effect.
+        if connected
+            && self
+                .board
+                .sent_s
+                .is_some_and(|t| now_s - t >= self.board.resend_after())
+        {
+            let wanted = self.board.wanted.1.clone();
+            let (t, f) = (&mut self.transport, &mut self.frame);
+            self.board
+                .send(now_s, wanted.as_ref(), |m| Self::write(t, f, &m));
+            self.sent = true;
+        }
+        if let Some(m) = self.link.heartbeat(now_s, self.sent) {
+            Self::write(&mut self.transport, &mut self.frame, &m);
+        }
+        if !connected {
+            emit(Tick {
+                link: reading.link,
+                mode,
+                ..Tick::on_axis(
+                    now_s.max(self.board.last_now),
+                    reading.position_m[0],
+                    0.0,
+                    0.0,
+                    0.0,
+                )
+            });
+        }
+        true
+    }
+}
+
+/// What the loop knows of the device's on-board rendering.
+struct OnBoardState {
+    /// The session's render to render, and whether the device renders it.
+    wanted: (u32, Option<ModelParams>),
+    rendering: bool,
+    /// Labels sent lately and the renders they stand for, newest first
+    /// (a resend is not a new label).
+    labels: [(u8, u32); LABELS],
+    /// Resends of the wanted render so far.
+    resends: u32,
+    /// The render whose telemetry shows in effect on the device.
+    device_render: u32,
+    /// When the wanted render was last sent, if not yet in effect.
+    sent_s: Option<f64>,
+    /// Device tick and loop time of the first telemetry since connecting,
+    /// and the last tick seen.
+    anchor: Option<(u32, f64)>,
+    last_tick: Option<u32>,
+    last_now: f64,
+    ticks: u64,
+    gaps: u64,
+}
+
+impl OnBoardState {
+    fn new() -> Self {
+        OnBoardState {
+            wanted: (0, None),
+            rendering: false,
+            labels: [(0, UNKNOWN_RENDER); LABELS],
+            resends: 0,
+            device_render: UNKNOWN_RENDER,
+            sent_s: None,
+            anchor: None,
+            last_tick: None,
+            last_now: 0.0,
+            ticks: 0,
+            gaps: 0,
+        }
+    }
+
+    /// Whether the device renders `model` on board.
+    fn renders(on_board: Option<link::OnBoard>, model: Option<&ModelParams>) -> bool {
+        on_board.is_some_and(|o| {
+            model.is_none_or(|m| {
+                let kind = m.kind();
+                kind > 0
+                    && o.models & (1 << (kind - 1)) != 0
+                    && f64::from(o.loop_rate_hz) >= m.loop_rate_hz()
+            })
+        })
+    }
+
+    /// Sends the wanted render to the device (upload and select, or clear)
+    /// through `send`.
+    #[expect(clippy::cast_possible_truncation, reason = "labels wrap by design")]
+    fn send(&mut self, now_s: f64, model: Option<&ModelParams>, mut send: impl FnMut(Message)) {
+        let render = self.wanted.0;
+        let label = render as u8;
+        if self.labels[0] == (label, render) {
+            self.resends += 1;
+        } else {
+            self.labels.rotate_right(1);
+            self.labels[0] = (label, render);
+            self.resends = 0;
+        }
+        match model {
+            Some(m) => frictionlab_core::onboard::upload(m, label, &mut send),
+            None => send(Message::Clear { render: label }),
+        }
+        self.sent_s = Some(now_s);
+    }
+
+    /// Notes one telemetry: the render in effect, gaps, and its time on the
+    /// loop's clock (device ticks from an anchor, never going back).
+    fn observe(&mut self, t: &Telemetry, now_s: f64, dt: f64) -> f64 {
+        if let Some(&(_, render)) = self.labels.iter().find(|(l, _)| *l == t.render) {
+            self.device_render = render;
+            if render == self.wanted.0 {
+                self.sent_s = None;
+            }
+        } else {
+            self.device_render = UNKNOWN_RENDER;
+        }
+        if let Some(last) = self.last_tick {
+            self.gaps += u64::from(t.tick.wrapping_sub(last).saturating_sub(1));
+        }
+        self.last_tick = Some(t.tick);
+        self.ticks += 1;
+        let (tick0, t0) = *self.anchor.get_or_insert((t.tick, now_s));
+        let mut at = t0 + f64::from(t.tick.wrapping_sub(tick0)) * dt;
+        if (at - now_s).abs() > 0.1 {
+            // Restarted or drifted: anchor afresh.
+            self.anchor = Some((t.tick, now_s));
+            at = now_s;
+        }
+        at = at.max(self.last_now);
+        self.last_now = at;
+        at
+    }
+
+    /// How long after the last send of the wanted render to resend it, s.
+    fn resend_after(&self) -> f64 {
+        RESEND_AFTER_S * f64::from(1_u32 << self.resends.min(3))
+    }
+
+    /// Forgets the device's state (a new connection).
+    fn disconnected(&mut self) {
+        self.labels = [(0, UNKNOWN_RENDER); LABELS];
+        self.device_render = UNKNOWN_RENDER;
+        self.anchor = None;
+        self.last_tick = None;
+        self.sent_s = None;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn telemetry(tick: u32, render: u8) -> Telemetry {
+        Telemetry {
+            tick,
+            x_m: 0.0,
+            v_m_s: 0.0,
+            force_n: 0.0,
+            vibration: 0.0,
+            render,
+            flags: 0,
+        }
+    }
+
+    /// Over a link that lags (QEMU's UART on a loaded machine lagged
+    /// 200 ms), the loop resends a render the device has not yet shown in
+    /// effect: ever less often, and without forgetting what the labels
+    /// sent before it stand for.
+    #[test]
+    fn resends_back_off_and_keep_the_labels_sent_before() {
+        let mut board = OnBoardState::new();
+        let model = ModelParams::default_for("karnopp").unwrap();
+        let mut sent = 0;
+        board.wanted = (18, Some(model.clone()));
+        board.send(0.0, Some(&model), |_| sent += 1);
+        board.wanted = (19, None);
+        board.send(0.01, None, |_| sent += 1);
+        let mut waits = Vec::new();
+        for k in 0..6 {
+            waits.push(board.resend_after());
+            board.send(0.1 * f64::from(k), None, |_| sent += 1);
+        }
+        assert_eq!(waits, [0.05, 0.1, 0.2, 0.4, 0.4, 0.4]);
+        assert!(sent > 7);
+        // The device still shows label 18, then takes 19.
+        board.observe(&telemetry(1, 18), 0.6, 0.0002);
+        assert_eq!(board.device_render, 18, "label 18 still means render 18");
+        assert!(board.sent_s.is_some(), "19 not in effect yet");
+        board.observe(&telemetry(2, 19), 0.6, 0.0002);
+        assert_eq!((board.device_render, board.sent_s), (19, None));
+        // A new render starts the backoff afresh.
+        board.wanted = (20, None);
+        board.send(0.7, None, |_| {});
+        assert_eq!(board.resend_after(), 0.05);
+    }
+}

@@ -1,0 +1,521 @@
+//! An emulated 2DIY: the board's firmware (`Haply_M3_Firmware_V1_5`, as
+//! read: reset, setup, torque writes answered with the encoder angles; no
+//! reply to anything else) on a pantograph with a hand on it.
+//!
+//! [`BoardCore`] is sans-IO: bytes in, reply bytes out, time as an
+//! argument. The shell ([`serve`]) runs it on a port or a new
+//! pseudo-terminal, and takes the simulated participant's hand drive from
+//! the socket beside the path ([`crate::device::hand_link`]).
+//!
+//! The physics: the end effector moves along the default track under the
+//! simulated apparatus model of [`Rig`] (the hand of the simulated
+//! participant follows the session's drive), and across it as a point mass
+//! held by the hand's own impedance. The motors' torques act through the
+//! pantograph's Jacobian at the true pose; the encoders count whole steps
+//! from the pose at setup, as the board's do. It powers up at the vendor's
+//! calibration pose, where a 2DIY is put before it is set up.
+//!
+//! Free constants of the emulated hand and linkage (not from a source; no
+//! result depends on their exact values, the tests ask only that the loop
+//! hold the hand on the track):
+//! - [`LINKAGE_MASS_KG`], [`LINKAGE_FRICTION_N`]: the linkage's moving mass
+//!   and friction at the end effector;
+//! - [`HAND_ACROSS_STIFFNESS_N_M`], [`HAND_ACROSS_DAMPING_N_S_M`],
+//!   [`HAND_ACROSS_REST_M`]: the hand across the track: a person's hand on
+//!   a stylus drifts off a line; it rests 3 mm off the track and pulls
+//!   there.
+
+use std::io::{Read, Write};
+use std::time::{Duration, Instant};
+
+use super::pantograph::{self, Links, Pose};
+use super::protocol::{PORTS, Wiring};
+use super::{Config, MAX_TORQUE_N_M};
+use crate::device::hand_link;
+use crate::device::pty::is_busy;
+use crate::device::track::Track;
+use frictionlab_core::plant::{Apparatus, Rig};
+
+/// The linkage's moving mass at the end effector, kg (free).
+pub const LINKAGE_MASS_KG: f64 = 0.05;
+/// The linkage's friction at the end effector, N (free).
+pub const LINKAGE_FRICTION_N: f64 = 0.02;
+/// The hand's stiffness across the track, N/m (free).
+pub const HAND_ACROSS_STIFFNESS_N_M: f64 = 200.0;
+/// The hand's damping across the track, N s/m (free).
+pub const HAND_ACROSS_DAMPING_N_S_M: f64 = 5.0;
+/// Where the hand rests across the track, m off it (free).
+pub const HAND_ACROSS_REST_M: f64 = 0.003;
+/// The hand's mass, kg (as the simulated participant's on our own device).
+pub const HAND_MASS_KG: f64 = 0.4;
+/// How far along the track the linkage moves before it meets its stops, m.
+pub const TRACK_RANGE_M: f64 = 0.08;
+
+/// Physics step of the emulator, s.
+pub const STEP_S: f64 = 0.0005;
+
+/// What the host set up (the firmware's tables after a type 1 frame).
+#[derive(Debug, Clone, Default)]
+struct Registered {
+    id: u8,
+    /// Per port: the direction byte of a motor there.
+    motors: [Option<u8>; PORTS],
+    /// Per port: direction, count at setup, counts per revolution.
+    encoders: [Option<(u8, i64, f64)>; PORTS],
+    /// The true joint angles at setup, degrees.
+    at_setup: [f64; 2],
+}
+
+/// The emulated board and pantograph.
+#[derive(Debug, Clone)]
+pub struct BoardCore {
+    /// How the board is really wired (which joint on which port, which
+    /// way) and its links.
+    truth: Wiring,
+    links: Links,
+    track: Track,
+    registered: Option<Registered>,
+    input: Vec<u8>,
+    /// Joint torques applied now, N m.
+    torque: [f64; 2],
+    rig: Rig,
+    /// Across the track: offset, m, and velocity, m/s.
+    across: (f64, f64),
+    /// The last pose inside the workspace.
+    angles: [f64; 2],
+}
+
+impl BoardCore {
+    /// A board wired as `config` says a vendor 2DIY is, powered up at its
+    /// calibration pose.
+    #[must_use]
+    pub fn new(config: &Config) -> Self {
+        let truth = config.wiring;
+        let calibration = [truth.encoders[0].offset_deg, truth.encoders[1].offset_deg];
+        let rest = pantograph::forward(&config.links, calibration);
+        let (along, across) = config.track.split([rest.x_m, rest.y_m, 0.0]);
+        let apparatus = Apparatus {
+            mass_kg: LINKAGE_MASS_KG,
+            static_friction_n: LINKAGE_FRICTION_N,
+            max_force_n: 1e3,
+            range_m: TRACK_RANGE_M,
+            encoder_m: 1e-9,
+            ..Apparatus::default()
+        };
+        let mut rig = Rig::new(apparatus, HAND_MASS_KG);
+        rig.place(along);
+        BoardCore {
+            truth,
+            links: config.links,
+            track: config.track,
+            registered: None,
+            input: Vec::new(),
+            torque: [0.0; 2],
+            rig,
+            across: (signed_across(&config.track, across), 0.0),
+            angles: calibration,
+        }
+    }
+
+    /// The hand follows `drive` from now on.
+    pub fn drive(&mut self, drive: crate::hand::HandDrive) {
+        self.rig.drive(drive);
+    }
+
+    /// The true joint angles, degrees.
+    #[must_use]
+    pub fn angles(&self) -> [f64; 2] {
+        self.angles
+    }
+
+    /// The end effector's true position, m.
+    #[must_use]
+    pub fn position(&self) -> [f64; 2] {
+        let p = pantograph::forward(&self.links, self.angles);
+        [p.x_m, p.y_m]
+    }
+
+    /// Takes bytes from the host; each whole frame is handled as the
+    /// firmware does, and a torque frame's reply appended to `reply`.
+    /// Each frame (and reply) is also handed to `log` (`true`: from the
+    /// host).
+    pub fn receive(&mut self, bytes: &[u8], reply: &mut Vec<u8>, log: &mut dyn FnMut(bool, &[u8])) {
+        self.input.extend_from_slice(bytes);
+        while let Some(len) = self.frame_len() {
+            let frame: Vec<u8> = self.input.drain(..len).collect();
+            log(true, &frame);
+            let start = reply.len();
+            self.handle(&frame, reply);
+            if reply.len() > start {
+                log(false, &reply[start..]);
+            }
+        }
+    }
+
+    /// The length of the whole frame at the start of the input, if it is
+    /// all there.
+    fn frame_len(&self) -> Option<usize> {
+        let b = &self.input;
+        let need = |n: usize| (b.len() >= n).then_some(n);
+        match *b.first()? {
+            0 => need(2),
+            1 => {
+                let mut at = 2;
+                for _ in 0..2 {
+                    let mask = *b.get(at)?;
+                    at += 1 + mask.count_ones() as usize;
+                }
+                let encoders = b.get(2 + 1 + b[2].count_ones() as usize)?.count_ones() as usize;
+                let sensors = usize::from(*b.get(at)?);
+                at += 1 + sensors;
+                let pwms = usize::from(*b.get(at)?);
+                at += 1 + pwms;
+                need(at + 8 * encoders)
+            }
+            2 => {
+                b.get(1)?;
+                let motors = self.motors_of(b[1]);
+                need(2 + 4 * motors)
+            }
+            _ => need(1),
+        }
+    }
+
+    fn motors_of(&self, id: u8) -> usize {
+        self.registered
+            .as_ref()
+            .filter(|r| r.id == id)
+            .map_or(0, |r| r.motors.iter().flatten().count())
+    }
+
+    fn handle(&mut self, frame: &[u8], reply: &mut Vec<u8>) {
+        match frame[0] {
+            0 => {
+                self.registered = None;
+                self.torque = [0.0; 2];
+            }
+            1 => self.setup(frame),
+            2 => {
+                self.torques(frame);
+                reply.push(frame[1]);
+                if let Some(r) = self.registered.as_ref().filter(|r| r.id == frame[1]) {
+                    for (port, e) in r.encoders.iter().enumerate() {
+                        if let Some(&(direction, count0, resolution)) = e.as_ref() {
+                            let angle = self.encoder_angle(port, direction, count0, resolution, r);
+                            reply.extend(angle.to_le_bytes());
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn setup(&mut self, frame: &[u8]) {
+        let mut r = Registered {
+            id: frame[1],
+            at_setup: self.angles,
+            ..Registered::default()
+        };
+        // Each block: a mask (bit k: port k + 1), then a direction per
+        // port in use, in port order.
+        let mut at = 2;
+        for block in 0..2 {
+            let mask = frame[at];
+            at += 1;
+            for p in 0..PORTS {
+                if mask & (1 << p) != 0 {
+                    if block == 0 {
+                        r.motors[p] = Some(frame[at]);
+                    } else {
+                        r.encoders[p] = Some((frame[at], 0, 1.0));
+                    }
+                    at += 1;
+                }
+            }
+        }
+        at += 1 + usize::from(frame[at]);
+        at += 1 + usize::from(frame[at]);
+        for p in 0..PORTS {
+            if let Some((direction, _, _)) = r.encoders[p] {
+                let f = |k: usize| {
+                    f64::from(f32::from_le_bytes([
+                        frame[k],
+                        frame[k + 1],
+                        frame[k + 2],
+                        frame[k + 3],
+                    ]))
+                };
+                let (offset, resolution) = (f(at), f(at + 4));
+                at += 8;
+                // `Encoder::write(offset * resolution / 360)`: a float
+                // converted to a whole count.
+                #[expect(clippy::cast_possible_truncation, reason = "the firmware's int")]
+                let count0 = (offset * resolution / 360.0) as i64;
+                r.encoders[p] = Some((direction, count0, resolution));
+            }
+        }
+        self.registered = Some(r);
+    }
+
+    /// Which joint is on `port`, and whether `direction` is the way it is
+    /// really wired.
+    fn joint(&self, port: usize, motor: bool, direction: u8) -> Option<(usize, f64)> {
+        (0..2).find_map(|j| {
+            let (p, d) = if motor {
+                (self.truth.motors[j].port, self.truth.motors[j].direction)
+            } else {
+                (
+                    self.truth.encoders[j].port,
+                    self.truth.encoders[j].direction,
+                )
+            };
+            (usize::from(p) == port + 1).then_some((j, if d == direction { 1.0 } else { -1.0 }))
+        })
+    }
+
+    fn torques(&mut self, frame: &[u8]) {
+        let Some(r) = self.registered.clone().filter(|r| r.id == frame[1]) else {
+            return;
+        };
+        let mut at = 2;
+        for (port, m) in r.motors.iter().enumerate() {
+            if let Some(direction) = *m {
+                let tau =
+                    f32::from_le_bytes([frame[at], frame[at + 1], frame[at + 2], frame[at + 3]]);
+                at += 4;
+                if let Some((joint, sign)) = self.joint(port, true, direction) {
+                    self.torque[joint] = sign * applied(f64::from(tau));
+                }
+            }
+        }
+    }
+
+    fn encoder_angle(
+        &self,
+        port: usize,
+        direction: u8,
+        count0: i64,
+        resolution: f64,
+        r: &Registered,
+    ) -> f32 {
+        let turned = self
+            .joint(port, false, direction)
+            .map_or(0.0, |(j, sign)| sign * (self.angles[j] - r.at_setup[j]));
+        #[expect(clippy::cast_possible_truncation, reason = "whole encoder steps")]
+        let count = count0 + (turned * resolution / 360.0).floor() as i64;
+        #[expect(
+            clippy::cast_possible_truncation,
+            clippy::cast_precision_loss,
+            reason = "the firmware's float"
+        )]
+        let angle = (360.0 * count as f64 / resolution) as f32;
+        angle
+    }
+
+    /// Advances the pantograph and hand by `dt`.
+    pub fn step(&mut self, dt: f64) {
+        let pose: Pose = pantograph::forward(&self.links, self.angles);
+        let f = pose.force(self.torque);
+        let (u, v) = axes(&self.track);
+        let along = f[0] * u[0] + f[1] * u[1];
+        let across_force = f[0] * v[0] + f[1] * v[1];
+        let sample = self.rig.step(dt, |_| along);
+        let (y, vy) = self.across;
+        let a = (across_force
+            - HAND_ACROSS_STIFFNESS_N_M * (y - HAND_ACROSS_REST_M)
+            - HAND_ACROSS_DAMPING_N_S_M * vy)
+            / (LINKAGE_MASS_KG + HAND_MASS_KG);
+        let vy = vy + a * dt;
+        let y = y + vy * dt;
+        let o = self.track.origin_m;
+        let (px, py) = (
+            o[0] + sample.x_m * u[0] + y * v[0],
+            o[1] + sample.x_m * u[1] + y * v[1],
+        );
+        if let Some(angles) = pantograph::inverse(&self.links, px, py) {
+            self.angles = angles;
+            self.across = (y, vy);
+        } else {
+            self.across = (self.across.0, 0.0);
+        }
+    }
+}
+
+/// The firmware's torque: |τ| clamped to [`MAX_TORQUE_N_M`] and set as a
+/// 12-bit duty (`duty = 4095 τ / MAX`, an int).
+fn applied(tau: f64) -> f64 {
+    if !tau.is_finite() {
+        return 0.0;
+    }
+    let magnitude = tau.abs().min(MAX_TORQUE_N_M);
+    let duty = (4095.0 * magnitude / MAX_TORQUE_N_M).floor();
+    tau.signum() * duty * MAX_TORQUE_N_M / 4095.0
+}
+
+/// The track's direction and the direction across it (in the plane, a
+/// quarter turn counter-clockwise).
+fn axes(track: &Track) -> ([f64; 2], [f64; 2]) {
+    let d = track.direction;
+    let n = d[0].hypot(d[1]).max(1e-12);
+    let u = [d[0] / n, d[1] / n];
+    (u, [-u[1], u[0]])
+}
+
+/// An offset across the track as a signed distance along [`axes`]' second.
+fn signed_across(track: &Track, offset: [f64; 3]) -> f64 {
+    let (_, v) = axes(track);
+    offset[0] * v[0] + offset[1] * v[1]
+}
+
+/// How the emulator advances time.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Clock {
+    /// In real time, in steps of [`STEP_S`].
+    Real,
+    /// One millisecond per torque frame, whatever the time (so two hosts
+    /// that send the same bytes read the same angles back).
+    Lockstep,
+}
+
+/// Runs `core` on `port` until the port fails: each frame answered at
+/// once, the physics advanced by `clock`, the hand following the newest
+/// drive on `hand`. Each frame and reply is handed to `log`.
+///
+/// # Errors
+/// An I/O error on the port.
+pub fn serve(
+    port: &mut (impl Read + Write),
+    mut core: BoardCore,
+    clock: Clock,
+    hand: Option<&hand_link::Receiver>,
+    mut log: impl FnMut(bool, &[u8]),
+) -> std::io::Result<()> {
+    let mut input = [0_u8; 512];
+    let mut reply = Vec::with_capacity(512);
+    let start = Instant::now();
+    let mut steps = 0_u64;
+    loop {
+        let n = match port.read(&mut input) {
+            Ok(n) => n,
+            Err(e) if is_busy(&e) => 0,
+            Err(e) => return Err(e),
+        };
+        if let Some(d) = hand.and_then(hand_link::Receiver::latest) {
+            core.drive(d);
+        }
+        reply.clear();
+        let mut frames = 0_u32;
+        core.receive(&input[..n], &mut reply, &mut |from_host, bytes| {
+            if from_host && bytes.first() == Some(&2) {
+                frames += 1;
+            }
+            log(from_host, bytes);
+        });
+        if !reply.is_empty() {
+            match port.write_all(&reply) {
+                Ok(()) => {}
+                Err(e) if is_busy(&e) => {}
+                Err(e) => return Err(e),
+            }
+        }
+        match clock {
+            Clock::Lockstep => {
+                for _ in 0..frames {
+                    for _ in 0..2 {
+                        core.step(STEP_S);
+                    }
+                }
+            }
+            Clock::Real => {
+                #[expect(
+                    clippy::cast_possible_truncation,
+                    clippy::cast_sign_loss,
+                    reason = "elapsed steps"
+                )]
+                let due = (start.elapsed().as_secs_f64() / STEP_S) as u64;
+                // After a stall, no burst of catch-up: at most 0.1 s.
+                steps = steps.max(due.saturating_sub(200));
+                while steps < due {
+                    core.step(STEP_S);
+                    steps += 1;
+                }
+                if n == 0 {
+                    std::thread::sleep(Duration::from_micros(100));
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn setup_core() -> (BoardCore, Wiring) {
+        let config = Config::vendor(3);
+        let mut core = BoardCore::new(&config);
+        let w = config.wiring;
+        let mut out = Vec::new();
+        core.receive(&w.reset(), &mut out, &mut |_, _| {});
+        core.receive(&w.setup(), &mut out, &mut |_, _| {});
+        assert!(out.is_empty(), "reset and setup are not answered");
+        (core, w)
+    }
+
+    /// At power-up the board reads the calibration angles the firmware
+    /// preloads: 168° and 12° as whole counts of 4880 per turn.
+    #[test]
+    fn the_board_reads_its_calibration_pose_as_the_firmware_counts_it() {
+        let (mut core, w) = setup_core();
+        let mut out = Vec::new();
+        core.receive(&w.torques([0.0, 0.0]), &mut out, &mut |_, _| {});
+        assert_eq!(out.len(), 9, "{out:?}");
+        let a = w.angles(&out.try_into().unwrap());
+        #[expect(clippy::cast_possible_truncation, reason = "the firmware's float")]
+        let whole =
+            |deg: f64| f64::from((360.0 * (deg * 4880.0_f64 / 360.0).trunc() / 4880.0) as f32);
+        assert_eq!(a, [whole(168.0), whole(12.0)]);
+    }
+
+    /// A frame split anywhere is handled once it is whole; a torque frame
+    /// before setup is answered with the id alone, as the firmware does.
+    #[test]
+    fn frames_are_taken_whole_however_they_arrive() {
+        let config = Config::vendor(3);
+        let mut core = BoardCore::new(&config);
+        let mut out = Vec::new();
+        core.receive(&[2, 5], &mut out, &mut |_, _| {});
+        assert_eq!(out, [5]);
+        let (mut core, w) = setup_core();
+        let frame = w.torques([0.01, 0.02]);
+        out.clear();
+        core.receive(&frame[..3], &mut out, &mut |_, _| {});
+        assert!(out.is_empty());
+        core.receive(&frame[3..], &mut out, &mut |_, _| {});
+        assert_eq!(out.len(), 9);
+    }
+
+    /// Torques beyond the firmware's 0.123 N m are applied at 0.123.
+    #[test]
+    fn the_firmware_clamps_torque_and_sets_it_in_twelve_bits() {
+        assert_eq!(applied(0.5), MAX_TORQUE_N_M);
+        assert_eq!(applied(-0.5), -MAX_TORQUE_N_M);
+        assert!((applied(0.05) - 0.05).abs() <= MAX_TORQUE_N_M / 4095.0);
+        assert_eq!(applied(f64::NAN), 0.0);
+    }
+
+    /// With no torque, the hand carries the end effector from the
+    /// calibration pose to where it rests across the track.
+    #[test]
+    fn the_hand_brings_the_end_effector_to_its_rest_by_the_track() {
+        let (mut core, _) = setup_core();
+        for _ in 0..4000 {
+            core.step(STEP_S);
+        }
+        let track = Config::vendor(3).track;
+        let p = core.position();
+        let (_, off) = track.split([p[0], p[1], 0.0]);
+        assert!((off[1] - HAND_ACROSS_REST_M).abs() < 1e-4, "{p:?} {off:?}");
+    }
+}

@@ -1,0 +1,357 @@
+//! The Haply 2DIY: a 2-DOF pantograph on a board that speaks the vendor's
+//! open host protocol ([`protocol`]) over USB serial. Its kinematics are
+//! the vendor's ([`pantograph`]); [`emulator`] is a board we ship for tests
+//! and for trying without hardware.
+//!
+//! [`Board`] is the backend: it resets and sets the board up when the port
+//! opens (and again when it reopens), sends one torque frame per loop tick
+//! and reads the angles each one is answered with. Forces become torques
+//! through the Jacobian at the last angles read (`τ = Jᵀ f`), scaled down
+//! as a whole when either is beyond the firmware's limit
+//! ([`MAX_TORQUE_N_M`]), so no torque the board would clamp is ever sent;
+//! until angles have come back, the torques are zero.
+//!
+//! Never run on a 2DIY here: it is written from the vendor's client and
+//! firmware and tested against the vendor's client on the emulator.
+
+pub mod emulator;
+pub mod pantograph;
+pub mod protocol;
+
+use std::path::Path;
+
+use self::pantograph::{Links, Pose};
+use self::protocol::{Replies, Wiring};
+use super::backend::{Backend, Capabilities, LinkState, LinkStats, Reading, Vector};
+use super::track::Track;
+use super::transport::Transport;
+use crate::hand::HandDrive;
+
+/// The firmware's torque limit, N m (`MAX_TORQUE 0.123 //Nm`).
+pub const MAX_TORQUE_N_M: f64 = 0.123;
+
+/// No reply for this long: the link is lost, s (as for our own board).
+pub const LOST_AFTER_S: f64 = 0.100;
+
+/// The loop rate the vendor's examples run the board at, Hz.
+pub const RATE_HZ: f64 = 1000.0;
+
+/// The device kind, as listed in [`super::KINDS`].
+pub const KIND: super::Kind = super::Kind {
+    name: "haply2diy",
+    about: "Haply 2DIY (2-DOF pantograph) on a serial port, or `frictionlab device-emulator haply2diy:PATH`",
+    target: "PATH",
+    bare: false,
+    check,
+    open,
+    find,
+};
+
+fn check(target: &str) -> Result<(), String> {
+    if target.is_empty() {
+        return Err("needs the board's serial port: haply2diy:PATH".into());
+    }
+    super::check_port(Path::new(target))
+}
+
+fn open(target: &str, settings: &super::Settings) -> Result<Box<dyn Backend>, String> {
+    check(target)?;
+    let config = Config::with(&settings.set)?;
+    Ok(Box::new(Board::new(Path::new(target), config)))
+}
+
+/// Serial ports that may be a 2DIY: Arduino Due-class boards (the M3
+/// board's SAM3X, USB vendor 2341) and every port whose kind is not known.
+fn find() -> Vec<super::Found> {
+    super::list_ports()
+        .unwrap_or_default()
+        .into_iter()
+        .filter(|p| p.kind.starts_with("usb 2341:") || p.kind == "unknown")
+        .map(|p| super::Found {
+            address: p.path,
+            what: p.kind,
+        })
+        .collect()
+}
+
+/// A 2DIY's settings: the vendor's values by default, each overridable
+/// with `--device-set NAME=VALUE`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    /// Hardware version: 3 (the plastic 2DIY) or 2 (the metal one); picks
+    /// the vendor's wiring and link lengths, which the other settings then
+    /// override.
+    pub version: u8,
+    /// Ports, directions and encoder calibration.
+    pub wiring: Wiring,
+    /// Link lengths.
+    pub links: Links,
+    /// The track friction is rendered along, and the wall that holds the
+    /// hand on it. Default: along x through (d/2, 0.10) m, the middle of
+    /// the workspace 10 cm out from the motors; the wall 1000 N/m and
+    /// 2 N s/m (our choice: about the stiffness the vendor's wall examples
+    /// use, and stable at 1 kHz with the linkage and a hand).
+    pub track: Track,
+}
+
+impl Config {
+    /// The vendor's values for hardware `version`.
+    #[must_use]
+    pub fn vendor(version: u8) -> Self {
+        let links = Links::vendor(version);
+        Config {
+            version,
+            wiring: Wiring::vendor(version),
+            links,
+            track: Track {
+                origin_m: [links.d / 2.0, 0.10, 0.0],
+                direction: [1.0, 0.0, 0.0],
+                wall_stiffness_n_m: 1000.0,
+                wall_damping_n_s_m: 2.0,
+            },
+        }
+    }
+
+    /// The vendor's values for the `version` the settings name (default 3),
+    /// with the settings applied.
+    ///
+    /// # Errors
+    /// One line naming each setting that is wrong.
+    pub fn with(set: &[String]) -> Result<Self, String> {
+        let mut pairs = Vec::new();
+        for s in set {
+            let (name, value) = crate::settings::split_setting(s).map_err(|p| p.to_string())?;
+            pairs.push((name, value));
+        }
+        let version = match pairs.iter().find(|(n, _)| *n == "version") {
+            Some((_, v)) => match *v {
+                "2" => 2,
+                "3" => 3,
+                _ => return Err(format!("version: expected 2 or 3, got '{v}'")),
+            },
+            None => 3,
+        };
+        let config: Config =
+            crate::settings::apply(&Config::vendor(version), "", "haply2diy", &pairs).map_err(
+                |problems| {
+                    problems
+                        .iter()
+                        .map(ToString::to_string)
+                        .collect::<Vec<_>>()
+                        .join("; ")
+                },
+            )?;
+        if let Some(p) = config.wiring.problem().or_else(|| config.track.problem()) {
+            return Err(p);
+        }
+        if config.track.direction[2] != 0.0 || config.track.origin_m[2] != 0.0 {
+            return Err("the 2DIY is planar: the track's z must be 0".into());
+        }
+        Ok(config)
+    }
+
+    /// The pose at the track's origin, if the linkage reaches it.
+    #[must_use]
+    pub fn origin_pose(&self) -> Option<Pose> {
+        let o = self.track.origin_m;
+        pantograph::inverse(&self.links, o[0], o[1]).map(|a| pantograph::forward(&self.links, a))
+    }
+
+    /// The largest force that needs no torque beyond the firmware's limit
+    /// at the track's origin, whatever its direction, N.
+    #[must_use]
+    pub fn force_limit_n(&self) -> f64 {
+        self.origin_pose().map_or(0.0, |p| {
+            let [j11, j12, j21, j22] = p.j;
+            MAX_TORQUE_N_M / j11.hypot(j12).max(j21.hypot(j22))
+        })
+    }
+}
+
+/// A 2DIY on a serial port.
+pub struct Board {
+    config: Config,
+    force_limit_n: f64,
+    transport: Transport,
+    opens: u64,
+    replies: Replies,
+    pose: Option<Pose>,
+    last_reply_s: Option<f64>,
+    link: LinkState,
+    hand: super::hand_link::Sender,
+    bytes: [u8; 256],
+}
+
+impl std::fmt::Debug for Board {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Board")
+            .field("transport", &self.transport)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Board {
+    /// The board at `path` (opened on the first tick, reopened after).
+    #[must_use]
+    pub fn new(path: &Path, config: Config) -> Self {
+        Board {
+            force_limit_n: config.force_limit_n(),
+            config,
+            transport: Transport::new(path),
+            opens: 0,
+            replies: Replies::default(),
+            pose: None,
+            last_reply_s: None,
+            link: LinkState::Connecting,
+            hand: super::hand_link::Sender::new(path),
+            bytes: [0; 256],
+        }
+    }
+
+    /// The joint torques for force `f` at the last angles read: zero before
+    /// any, scaled down as a whole to the firmware's limit, zero if not
+    /// finite.
+    #[must_use]
+    pub fn torques_for(&self, f: Vector) -> [f64; 2] {
+        let Some(pose) = self.pose else {
+            return [0.0; 2];
+        };
+        let tau = pose.torques(f[0], f[1]);
+        if !tau.iter().all(|t| t.is_finite()) {
+            return [0.0; 2];
+        }
+        let largest = tau[0].abs().max(tau[1].abs());
+        if largest > MAX_TORQUE_N_M {
+            tau.map(|t| t * MAX_TORQUE_N_M / largest)
+        } else {
+            tau
+        }
+    }
+}
+
+impl Backend for Board {
+    fn capabilities(&self) -> Capabilities {
+        Capabilities {
+            axes: 2,
+            vertical_axis: None,
+            force_limit_n: self.force_limit_n,
+            max_rate_hz: RATE_HZ,
+            on_board: false,
+        }
+    }
+
+    fn read(&mut self, now_s: f64) -> Reading {
+        let n = self.transport.read(&mut self.bytes);
+        if self.transport.opens() != self.opens {
+            // A port (re)opened: the board may have been reset.
+            self.opens = self.transport.opens();
+            self.transport.write(&self.config.wiring.reset());
+            self.transport.write(&self.config.wiring.setup());
+            self.replies = Replies::default();
+        }
+        let (links, pose, last) = (&self.config.links, &mut self.pose, &mut self.last_reply_s);
+        self.replies
+            .feed(&self.config.wiring, &self.bytes[..n], |angles| {
+                *pose = Some(pantograph::forward(links, angles));
+                *last = Some(now_s);
+            });
+        self.link = match self.last_reply_s {
+            None => LinkState::Connecting,
+            Some(t) if now_s - t <= LOST_AFTER_S => LinkState::Connected,
+            Some(_) => LinkState::Lost,
+        };
+        let p = self.pose.map_or([0.0; 3], |p| [p.x_m, p.y_m, 0.0]);
+        Reading {
+            link: self.link,
+            position_m: p,
+            button: false,
+            watchdog: false,
+        }
+    }
+
+    fn send_force(&mut self, _now_s: f64, force_n: Vector, _vibration: f64) {
+        let tau = if self.link == LinkState::Lost {
+            [0.0; 2]
+        } else {
+            self.torques_for(force_n)
+        };
+        self.transport.write(&self.config.wiring.torques(tau));
+    }
+
+    fn close(&mut self) {
+        self.transport.write(&self.config.wiring.torques([0.0; 2]));
+    }
+
+    fn drive_hand(&mut self, drive: &HandDrive) {
+        self.hand.send(drive);
+    }
+
+    fn track(&self) -> Track {
+        self.config.track
+    }
+
+    fn stats(&self) -> LinkStats {
+        LinkStats {
+            resyncs: self.replies.dropped,
+            ..LinkStats::default()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_track_is_in_reach_and_its_force_limit_keeps_torques_within_the_firmwares() {
+        let c = Config::vendor(3);
+        let limit = c.force_limit_n();
+        assert!(limit > 0.5 && limit < 5.0, "{limit}");
+        let pose = c.origin_pose().unwrap();
+        for k in 0..36 {
+            let a = f64::from(k) * 10_f64.to_radians();
+            let t = pose.torques(limit * a.cos(), limit * a.sin());
+            assert!(t[0].abs().max(t[1].abs()) <= MAX_TORQUE_N_M * (1.0 + 1e-12));
+        }
+    }
+
+    #[test]
+    fn settings_override_the_vendors_values_and_bad_ones_are_named() {
+        let c = Config::with(&["version=2".into(), "wall_stiffness_n_m=500".into()]).unwrap();
+        assert_eq!(c.wiring.encoders[0].offset_deg, 241.0);
+        assert_eq!(c.track.wall_stiffness_n_m, 500.0);
+        let c = Config::with(&["track.origin_m=[0.0, 0.12, 0]".into()]).unwrap();
+        assert_eq!(c.track.origin_m, [0.0, 0.12, 0.0]);
+        assert!(
+            Config::with(&["version=4".into()])
+                .unwrap_err()
+                .contains("version")
+        );
+        assert!(
+            Config::with(&["nonsense=1".into()])
+                .unwrap_err()
+                .contains("nonsense")
+        );
+        assert!(
+            Config::with(&["wall_damping_n_s_m=-1".into()])
+                .unwrap_err()
+                .contains("at least 0")
+        );
+    }
+
+    #[test]
+    fn torques_are_zero_before_angles_and_scaled_to_the_limit_after() {
+        let mut b = Board::new(Path::new("/nonexistent"), Config::vendor(3));
+        assert_eq!(b.torques_for([1.0, 1.0, 0.0]), [0.0; 2]);
+        b.pose = b.config.origin_pose();
+        let t = b.torques_for([50.0, 0.0, 0.0]);
+        assert!((t[0].abs().max(t[1].abs()) - MAX_TORQUE_N_M).abs() < 1e-15);
+        let want = b.pose.unwrap().torques(50.0, 0.0);
+        assert!(
+            (t[0] / t[1] - want[0] / want[1]).abs() < 1e-12,
+            "direction kept"
+        );
+        assert_eq!(b.torques_for([f64::NAN, 0.0, 0.0]), [0.0; 2]);
+    }
+}
