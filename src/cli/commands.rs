@@ -291,15 +291,75 @@ pub(super) fn gui_command(
 }
 
 pub(super) fn ports_command() -> Result<(), Failure> {
-    let ports = crate::device::list_ports().map_err(|e| device_failure("ports", e))?;
-    if ports.is_empty() {
-        return emit("no serial ports found\n");
+    let found = crate::device::find_all();
+    if found.is_empty() {
+        return emit("no devices found\n");
     }
     let mut lines = String::new();
-    for p in ports {
-        let _ = writeln!(lines, "{}\t{}", p.path, p.kind);
+    for (kind, f) in found {
+        let address = crate::device::Address {
+            kind: kind.name,
+            target: f.address,
+            settings: crate::device::Settings::default(),
+        };
+        let _ = writeln!(lines, "{address}\t{}\t{}", f.what, kind.name);
     }
     emit(&lines)
+}
+
+/// `device-emulator haply2diy:PATH`.
+pub(super) fn haply2diy_emulator_command(
+    path: &Path,
+    lockstep: bool,
+    transcript: Option<&Path>,
+) -> Result<(), Failure> {
+    use crate::device::haply2diy::{Config, emulator};
+    use crate::device::pty::{self, Endpoint, OpenError};
+    let place = format!("haply2diy:{}", path.display());
+    let mut port = pty::open(path).map_err(|e| match e {
+        OpenError::NotAPort(_) => Failure::from(vec![UserError::new(&place, e.to_string())]),
+        _ => device_failure(&place, e.to_string()),
+    })?;
+    let mut log = match transcript {
+        Some(t) => Some(
+            std::fs::OpenOptions::new()
+                .create(true)
+                .append(true)
+                .open(t)
+                .map_err(|e| {
+                    Failure::from(vec![UserError::new(
+                        &t.display().to_string(),
+                        e.to_string(),
+                    )])
+                })?,
+        ),
+        None => None,
+    };
+    let hand = crate::device::hand_link::Receiver::bind(path)
+        .map_err(|e| device_failure(&place, format!("cannot bind the hand's socket: {e}")))?;
+    emit(&match port.endpoint() {
+        Endpoint::Port => format!("haply2diy emulator on {place}\n"),
+        Endpoint::Pty { slave, .. } => {
+            format!(
+                "haply2diy emulator on {place} (pseudo-terminal {})\n",
+                slave.display()
+            )
+        }
+    })?;
+    let core = emulator::BoardCore::new(&Config::vendor(3));
+    let clock = if lockstep {
+        emulator::Clock::Lockstep
+    } else {
+        emulator::Clock::Real
+    };
+    emulator::serve(port.port(), core, clock, Some(&hand), |from_host, bytes| {
+        if let Some(f) = log.as_mut() {
+            use std::io::Write as _;
+            let hex: String = bytes.iter().map(|b| format!("{b:02x}")).collect();
+            let _ = writeln!(f, "{} {hex}", if from_host { '>' } else { '<' });
+        }
+    })
+    .map_err(|e| device_failure(&place, e.to_string()))
 }
 
 pub(super) fn emulator_command(

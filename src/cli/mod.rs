@@ -1,7 +1,7 @@
 //! The command line: parses arguments, calls the library, and is the one place
 //! that turns errors into `error: <where>: <what>` lines and exit codes.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
@@ -16,8 +16,9 @@ mod commands;
 
 use commands::{
     analyze_command, claims_command, emulator_command, firmware_qemu_command, gui_command,
-    identify_command, models_json, ports_command, power_command, power_merge_command,
-    render_command, run_command, simulate_command, validate_command, validation_command,
+    haply2diy_emulator_command, identify_command, models_json, ports_command, power_command,
+    power_merge_command, render_command, run_command, simulate_command, validate_command,
+    validation_command,
 };
 
 /// `--device`: `sim` (the simulated apparatus), a serial port's path (our
@@ -172,17 +173,29 @@ enum Command {
     /// Fits friction parameters to recorded motion and force (seed 002);
     /// prints JSON with a `protocol_model` block for a protocol.
     Identify(IdentifyArgs),
-    /// Lists serial ports.
+    /// Lists the devices this machine has, of every kind, as `--device`
+    /// names them.
     Ports,
-    /// Runs an emulated device (the simulated apparatus) on a serial port,
-    /// or on a new pseudo-terminal linked at PATH if nothing is there (a
-    /// link an earlier emulator left, to a pseudo-terminal now gone, is
-    /// replaced). It stays silent until a host says Hello, and serves host
-    /// after host until stopped.
+    /// Runs an emulated device on a serial port, or on a new
+    /// pseudo-terminal linked at PATH if nothing is there (a link an
+    /// earlier emulator left, to a pseudo-terminal now gone, is replaced).
+    /// `PATH`: frictionlab's own board (the simulated apparatus), silent
+    /// until a host says Hello, serving host after host until stopped.
+    /// `haply2diy:PATH`: a Haply 2DIY board (its firmware's protocol) on a
+    /// pantograph, powered up at the vendor's calibration pose.
     DeviceEmulator {
-        /// A serial port (or a link to one, left in place), or where to link
-        /// a new pseudo-terminal.
-        path: PathBuf,
+        /// `PATH` or `haply2diy:PATH`: a serial port (or a link to one,
+        /// left in place), or where to link a new pseudo-terminal.
+        path: String,
+        /// haply2diy: advance the physics 1 ms per torque frame instead of
+        /// in real time (two hosts that send the same bytes read the same
+        /// angles back).
+        #[arg(long)]
+        lockstep: bool,
+        /// haply2diy: append every frame the board takes and every reply,
+        /// in hex, one per line (`> ` from the host, `< ` to it), to FILE.
+        #[arg(long, value_name = "FILE")]
+        transcript: Option<PathBuf>,
         /// Render friction on board (wire protocol v2): the host uploads
         /// each trial's model, the emulator steps it itself in f32 at
         /// 5 kHz and streams telemetry. Without it, a version 1 device
@@ -459,9 +472,24 @@ pub fn main() -> ExitCode {
         Command::Ports => ports_command(),
         Command::DeviceEmulator {
             path,
+            lockstep,
+            transcript,
             on_board,
             link_delay_ms,
-        } => emulator_command(&path, on_board, link_delay_ms),
+        } => match path.strip_prefix("haply2diy:") {
+            Some(path) => {
+                haply2diy_emulator_command(Path::new(path), lockstep, transcript.as_deref())
+            }
+            None if lockstep || transcript.is_some() => Err(Failure::from(vec![UserError::new(
+                if lockstep {
+                    "--lockstep"
+                } else {
+                    "--transcript"
+                },
+                "only for an emulated haply2diy:PATH".to_owned(),
+            )])),
+            None => emulator_command(Path::new(&path), on_board, link_delay_ms),
+        },
         Command::FirmwareQemu { elf, link } => firmware_qemu_command(&elf, link.as_deref()),
         Command::Schema { which } => emit(&if which == "log" {
             crate::results::log_json_schema::<crate::kinds::Registry>()
@@ -547,6 +575,7 @@ impl From<SessionError> for Failure {
             }
             SessionError::Lost { .. }
             | SessionError::NeverConnected { .. }
+            | SessionError::OffTrack { .. }
             | SessionError::Loop(_) => device_failure("--device", e.to_string()),
             SessionError::Lsl(message) => Failure {
                 code: EXIT_FAILURE,

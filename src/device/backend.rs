@@ -116,6 +116,8 @@ pub struct Tick {
     /// The force sent on every axis, N, device frame (friction along the
     /// track and the walls that hold the hand on it).
     pub force_vector_n: Vector,
+    /// How far the hand is off the track, m (0 on a one-axis device).
+    pub off_track_m: f64,
     /// Device button.
     pub button: bool,
     /// Link state.
@@ -164,6 +166,7 @@ impl Tick {
             vibration,
             position_m: [x_m, 0.0, 0.0],
             force_vector_n: [force_n, 0.0, 0.0],
+            off_track_m: 0.0,
             button: false,
             link: LinkState::Connected,
             render: UNKNOWN_RENDER,

@@ -395,6 +395,7 @@ fn run(
                 watchdog: reading.watchdog,
                 position_m: reading.position_m,
                 force_vector_n: force,
+                off_track_m: super::track::norm(motion.offset),
                 non_finite: !finite,
                 ..Tick::on_axis(now, motion.along, motion.v, along_n, vibration)
             },

@@ -76,8 +76,10 @@ impl Track {
 
     /// The force vector for `along_n` along the track plus the wall's push
     /// back towards it, for a hand `offset` m off the track moving off it
-    /// at `offset_velocity` m/s, its magnitude at most `limit_n` (scaled
-    /// down as a whole: the direction is kept).
+    /// at `offset_velocity` m/s, its magnitude at most `limit_n`. The wall
+    /// comes first (it keeps the hand where the one-dimensional model
+    /// holds): the force along the track gets what the wall leaves of the
+    /// limit, and a wall beyond the limit alone is scaled down to it.
     #[must_use]
     pub fn force(
         &self,
@@ -87,18 +89,22 @@ impl Track {
         limit_n: f64,
     ) -> Vector {
         let u = self.unit();
-        let mut f = [0.0; MAX_AXES];
+        let mut wall = [0.0; MAX_AXES];
         for i in 0..MAX_AXES {
-            f[i] = u[i] * along_n
-                - self.wall_stiffness_n_m * offset[i]
-                - self.wall_damping_n_s_m * offset_velocity[i];
+            wall[i] =
+                -self.wall_stiffness_n_m * offset[i] - self.wall_damping_n_s_m * offset_velocity[i];
         }
-        let n = norm(f);
-        if n > limit_n && n > 0.0 {
-            let k = limit_n / n;
-            f = f.map(|c| c * k);
+        // Only the wall's part across the track counts as wall.
+        let w_along = dot(wall, u);
+        let mut wall = sub(wall, u.map(|c| c * w_along));
+        let w = norm(wall);
+        if w > limit_n {
+            let k = limit_n / w;
+            wall = wall.map(|c| c * k);
         }
-        f
+        let room = (limit_n * limit_n - norm(wall).powi(2)).max(0.0).sqrt();
+        let along = along_n.clamp(-room, room);
+        [0, 1, 2].map(|i| wall[i] + u[i] * along)
     }
 }
 
@@ -144,10 +150,18 @@ mod tests {
     }
 
     #[test]
-    fn the_force_never_exceeds_the_limit_and_keeps_its_direction() {
-        let f = track().force(3.0, [0.0, 0.004, 0.0], [0.0; 3], 2.0);
-        assert!((norm(f) - 2.0).abs() < 1e-12);
-        assert!((f[1] / f[0] - (-4.0 / 3.0)).abs() < 1e-12);
+    fn the_force_never_exceeds_the_limit_and_the_wall_comes_first() {
+        // Wall 1.2 N across, friction 3 N along, limit 2 N: the wall whole,
+        // the friction what is left, 1.6 N.
+        let f = track().force(3.0, [0.0, 0.0012, 0.0], [0.0; 3], 2.0);
+        assert!((norm(f) - 2.0).abs() < 1e-12, "{f:?}");
+        assert!(
+            (f[1] + 1.2).abs() < 1e-12 && (f[0] - 1.6).abs() < 1e-12,
+            "{f:?}"
+        );
+        // A wall beyond the limit alone: scaled to it, nothing along.
+        let f = track().force(-3.0, [0.0, 0.01, 0.0], [0.0; 3], 2.0);
+        assert_eq!(f, [0.0, -2.0, 0.0]);
     }
 
     #[test]

@@ -38,6 +38,8 @@ pub struct DeviceStatus {
 /// A haptic loop on a serial port, with what the session tracks of it.
 pub(super) struct Port {
     haptic: HapticLoop,
+    /// The device's axes.
+    pub(super) axes: usize,
     pub(super) rate_hz: f64,
     force_limit_n: f64,
     periods: VecDeque<f64>,
@@ -49,9 +51,10 @@ pub(super) struct Port {
 }
 
 impl Port {
-    pub(super) fn new(haptic: HapticLoop, rate_hz: f64, force_limit_n: f64) -> Self {
+    pub(super) fn new(haptic: HapticLoop, axes: usize, rate_hz: f64, force_limit_n: f64) -> Self {
         Port {
             haptic,
+            axes,
             rate_hz,
             force_limit_n,
             periods: VecDeque::with_capacity(PERIODS_KEPT),
@@ -179,18 +182,22 @@ impl Device {
                 }
             }
             super::DeviceChoice::Device(address) => {
-                let step = StepParams {
-                    rate_hz,
-                    ..StepParams::default()
-                };
                 let backend = address
                     .open()
                     .map_err(|e| super::SessionError::Device(address.to_string(), e))?;
+                // A device slower than the model's rate renders it at its own
+                // (each render's `rendering` says at which).
+                let caps = backend.capabilities();
+                let step = StepParams {
+                    rate_hz: rate_hz.min(caps.max_rate_hz),
+                    ..StepParams::default()
+                };
                 let haptic =
                     HapticLoop::start(backend, step, true).map_err(super::SessionError::Loop)?;
                 Device::Port(Box::new(Port::new(
                     haptic,
-                    rate_hz,
+                    caps.axes,
+                    step.rate_hz,
                     step.force_limit.newtons(),
                 )))
             }

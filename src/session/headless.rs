@@ -255,7 +255,10 @@ pub fn run_device<R: Responder>(
         }
         if !session.is_open() && wall.elapsed().as_secs_f64() > timeout_s {
             session.stop_device()?;
-            return Err(SessionError::NeverConnected { timeout_s });
+            return Err(match session.off_track_m() {
+                Some(off_m) => SessionError::OffTrack { off_m, timeout_s },
+                None => SessionError::NeverConnected { timeout_s },
+            });
         }
         if session.lost_for_s().is_some_and(|s| s > timeout_s) {
             session.stop_device()?;

@@ -114,6 +114,13 @@ pub const INTERRUPTED: &str = "interrupted";
 /// Longest session-time step one frame may take with the simulated device, s.
 pub const MAX_FRAME_STEP_S: f64 = 0.5;
 
+/// A session on a device with more than one axis starts once the hand is
+/// within this of the track, m (it stays there: the stream shows it).
+pub const ON_TRACK_M: f64 = 0.001;
+
+/// ... and has been for this long, s (so it is held there, not passing).
+pub const ON_TRACK_HOLD_S: f64 = 0.25;
+
 /// Why a session could not start or go on.
 #[derive(Debug, thiserror::Error)]
 pub enum SessionError {
@@ -159,6 +166,19 @@ pub enum SessionError {
     /// The device could not be opened (nothing written).
     #[error("--device: {0}: {1}")]
     Device(String, String),
+    /// The device answered, but the hand stayed off the track; no session
+    /// was started (nothing written).
+    #[error(
+        "the hand stayed {:.1} mm off the track for {timeout_s} s (a session starts with it within {:.0} mm; see README, Devices); no session was started",
+        off_m * 1e3,
+        ON_TRACK_M * 1e3
+    )]
+    OffTrack {
+        /// How far off it was last, m.
+        off_m: f64,
+        /// The timeout, s.
+        timeout_s: f64,
+    },
     /// The haptic loop could not start.
     #[error("cannot start the haptic loop: {0}")]
     Loop(std::io::Error),
@@ -207,6 +227,11 @@ pub struct Session<R: Responder> {
     /// The last device sample's marks, and (the simulated device) whether
     /// a render takes effect at the next.
     marks: RowMarks,
+    /// While the session waits to start: how far off the track the hand
+    /// was at the last tick, if it was too far.
+    off_track_m: Option<f64>,
+    /// Since when the hand has been on the track, waiting to start.
+    on_track_since: Option<Time>,
     sim_selected: bool,
     /// Publishing on the Lab Streaming Layer ([`lsl`]).
     lsl: Option<Box<lsl::Tap>>,
@@ -372,6 +397,8 @@ impl<R: Responder> Session<R> {
             owed: Time::ZERO,
             renders: Renders::default(),
             marks: RowMarks::default(),
+            off_track_m: None,
+            on_track_since: None,
             sim_selected: false,
             row_render: (0, how),
             lsl: None,
@@ -416,6 +443,7 @@ impl<R: Responder> Session<R> {
             selected: std::mem::take(&mut self.sim_selected),
             watchdog: false,
             device_tick: None,
+            axes: None,
         };
         // How the simulated device steps changes only with its model
         // (`Session::render`).
@@ -451,6 +479,18 @@ impl<R: Responder> Session<R> {
                 lsl::device_lost(self.lsl.as_deref_mut(), self.t, false);
             }
             if matches!(self.log, Log::Planned { .. }) {
+                // A session starts with the hand on the track, held
+                // there for ON_TRACK_HOLD_S (not passing through it).
+                if tick.off_track_m > ON_TRACK_M {
+                    self.off_track_m = Some(tick.off_track_m);
+                    self.on_track_since = None;
+                    continue;
+                }
+                let since = *self.on_track_since.get_or_insert(self.t);
+                if (self.t - since).secs() < ON_TRACK_HOLD_S {
+                    continue;
+                }
+                self.off_track_m = None;
                 if self.lsl.as_ref().is_some_and(|tap| !tap.is_open()) {
                     // Its streams open first (issue 42), and may have
                     // waited for a recorder: the session starts at the
@@ -477,6 +517,7 @@ impl<R: Responder> Session<R> {
                 selected: tick.selected,
                 watchdog: tick.watchdog,
                 device_tick: tick.device_tick,
+                axes: (port.axes > 1).then_some((tick.position_m, tick.force_vector_n)),
             };
             if let Some(drive) = self.responder.drive(self.t, &self.sample) {
                 port.drive_hand(tick.now_s, &drive);

@@ -19,7 +19,12 @@ use crate::results::{ResultsDir, ResultsError, data_csv, replace_file};
 /// session time, device position and velocity (what the model saw),
 /// rendered force on the hand, vibrotactile drive (SI units), and the
 /// index of the render in effect in the trial record's `rendering` list,
-/// and the row's [`RowMarks`].
+/// and the row's [`RowMarks`]. On a device with more than one axis, where
+/// `x_m` is the place along the track the model was rendered on, six more
+/// columns `device_x_m,device_y_m,device_z_m,device_fx_n,device_fy_n,device_fz_n`
+/// give the hand's position and the force sent on each of the device's
+/// axes, in its own frame (the friction and the wall that holds the hand on
+/// the track).
 /// Readable by `frictionlab identify`; `frictionlab rerender` renders it
 /// again.
 #[derive(Debug, Clone, Default)]
@@ -30,7 +35,7 @@ pub struct StreamRecorder {
 
 /// What a stream row marks besides its values (columns `selected` and
 /// `watchdog`, 0 or 1, and `tick`, empty where the device gave none).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct RowMarks {
     /// A render took effect at this row (its model started at rest here).
     pub selected: bool,
@@ -42,6 +47,9 @@ pub struct RowMarks {
     /// The device's loop tick number, where its telemetry gave one (on
     /// board).
     pub device_tick: Option<u32>,
+    /// On a device with more than one axis: the hand's position, m, and
+    /// the force sent, N, on each axis of the device's frame.
+    pub axes: Option<([f64; 3], [f64; 3])>,
 }
 
 impl StreamRecorder {
@@ -77,7 +85,13 @@ impl StreamRecorder {
             return Ok(());
         };
         let mut text = String::with_capacity(rows.len() * 64 + 40);
-        text.push_str("t_s,x_m,v_m_s,force_n,vibration,render,selected,watchdog,tick\n");
+        let axes = rows.iter().any(|(_, _, m)| m.axes.is_some());
+        text.push_str("t_s,x_m,v_m_s,force_n,vibration,render,selected,watchdog,tick");
+        text.push_str(if axes {
+            ",device_x_m,device_y_m,device_z_m,device_fx_n,device_fy_n,device_fz_n\n"
+        } else {
+            "\n"
+        });
         for (r, render, marks) in &rows {
             let _ = write!(
                 text,
@@ -92,6 +106,12 @@ impl StreamRecorder {
             );
             if let Some(tick) = marks.device_tick {
                 let _ = write!(text, "{tick}");
+            }
+            if axes {
+                let (p, f) = marks.axes.unwrap_or_default();
+                for v in p.iter().chain(&f) {
+                    let _ = write!(text, ",{}", Num(*v));
+                }
             }
             text.push('\n');
         }

@@ -156,6 +156,13 @@ impl<R: Responder> Session<R> {
         !matches!(self.log, Log::Planned { .. })
     }
 
+    /// While the session waits to start on a device with more than one
+    /// axis: how far off the track the hand is, m, if too far to start.
+    #[must_use]
+    pub fn off_track_m(&self) -> Option<f64> {
+        self.off_track_m
+    }
+
     /// How long the device has not answered, s (None while it answers).
     #[must_use]
     pub fn lost_for_s(&self) -> Option<f64> {

@@ -13,7 +13,8 @@
 //! held by the hand's own impedance. The motors' torques act through the
 //! pantograph's Jacobian at the true pose; the encoders count whole steps
 //! from the pose at setup, as the board's do. It powers up at the vendor's
-//! calibration pose, where a 2DIY is put before it is set up.
+//! calibration pose, and is put back there at each reset, as a 2DIY is
+//! before a host sets it up.
 //!
 //! Free constants of the emulated hand and linkage (not from a source; no
 //! result depends on their exact values, the tests ask only that the loop
@@ -91,9 +92,6 @@ impl BoardCore {
     #[must_use]
     pub fn new(config: &Config) -> Self {
         let truth = config.wiring;
-        let calibration = [truth.encoders[0].offset_deg, truth.encoders[1].offset_deg];
-        let rest = pantograph::forward(&config.links, calibration);
-        let (along, across) = config.track.split([rest.x_m, rest.y_m, 0.0]);
         let apparatus = Apparatus {
             mass_kg: LINKAGE_MASS_KG,
             static_friction_n: LINKAGE_FRICTION_N,
@@ -102,19 +100,34 @@ impl BoardCore {
             encoder_m: 1e-9,
             ..Apparatus::default()
         };
-        let mut rig = Rig::new(apparatus, HAND_MASS_KG);
-        rig.place(along);
-        BoardCore {
+        let mut core = BoardCore {
             truth,
             links: config.links,
             track: config.track,
             registered: None,
             input: Vec::new(),
             torque: [0.0; 2],
-            rig,
-            across: (signed_across(&config.track, across), 0.0),
-            angles: calibration,
-        }
+            rig: Rig::new(apparatus, HAND_MASS_KG),
+            across: (0.0, 0.0),
+            angles: [0.0; 2],
+        };
+        core.park();
+        core
+    }
+
+    /// Puts the linkage at its calibration pose, at rest: a 2DIY's
+    /// encoders count from where it is when it is set up, so it is put
+    /// there before a host starts (the emulator does so at each reset).
+    pub fn park(&mut self) {
+        let calibration = [
+            self.truth.encoders[0].offset_deg,
+            self.truth.encoders[1].offset_deg,
+        ];
+        let rest = pantograph::forward(&self.links, calibration);
+        let (along, across) = self.track.split([rest.x_m, rest.y_m, 0.0]);
+        self.rig.place(along);
+        self.across = (signed_across(&self.track, across), 0.0);
+        self.angles = calibration;
     }
 
     /// The hand follows `drive` from now on.
@@ -193,6 +206,7 @@ impl BoardCore {
             0 => {
                 self.registered = None;
                 self.torque = [0.0; 2];
+                self.park();
             }
             1 => self.setup(frame),
             2 => {

@@ -33,6 +33,11 @@ pub const MAX_TORQUE_N_M: f64 = 0.123;
 /// No reply for this long: the link is lost, s (as for our own board).
 pub const LOST_AFTER_S: f64 = 0.100;
 
+/// After the port (re)opens and the board is set up, replies are ignored
+/// for this long, s: bytes a board sent an earlier host may still be on
+/// their way (the board answers each torque frame, and says nothing else).
+pub const SETTLE_S: f64 = 0.020;
+
 /// The loop rate the vendor's examples run the board at, Hz.
 pub const RATE_HZ: f64 = 1000.0;
 
@@ -107,8 +112,8 @@ impl Config {
             track: Track {
                 origin_m: [links.d / 2.0, 0.10, 0.0],
                 direction: [1.0, 0.0, 0.0],
-                wall_stiffness_n_m: 1000.0,
-                wall_damping_n_s_m: 2.0,
+                wall_stiffness_n_m: 2000.0,
+                wall_damping_n_s_m: 5.0,
             },
         }
     }
@@ -178,6 +183,8 @@ pub struct Board {
     replies: Replies,
     pose: Option<Pose>,
     last_reply_s: Option<f64>,
+    /// When the board was last set up.
+    setup_s: f64,
     link: LinkState,
     hand: super::hand_link::Sender,
     bytes: [u8; 256],
@@ -203,6 +210,7 @@ impl Board {
             replies: Replies::default(),
             pose: None,
             last_reply_s: None,
+            setup_s: 0.0,
             link: LinkState::Connecting,
             hand: super::hand_link::Sender::new(path),
             bytes: [0; 256],
@@ -248,7 +256,18 @@ impl Backend for Board {
             self.opens = self.transport.opens();
             self.transport.write(&self.config.wiring.reset());
             self.transport.write(&self.config.wiring.setup());
+            self.setup_s = now_s;
+            self.pose = None;
+            self.last_reply_s = None;
+        }
+        if now_s - self.setup_s < SETTLE_S {
             self.replies = Replies::default();
+            return Reading {
+                link: LinkState::Connecting,
+                position_m: [0.0; 3],
+                button: false,
+                watchdog: false,
+            };
         }
         let (links, pose, last) = (&self.config.links, &mut self.pose, &mut self.last_reply_s);
         self.replies
