@@ -327,10 +327,7 @@ pub(super) fn haply2diy_emulator_command(
                 .append(true)
                 .open(t)
                 .map_err(|e| {
-                    Failure::from(vec![UserError::new(
-                        &t.display().to_string(),
-                        e.to_string(),
-                    )])
+                    Failure::from(vec![UserError::new(t.display().to_string(), e.to_string())])
                 })?,
         ),
         None => None,
@@ -355,8 +352,11 @@ pub(super) fn haply2diy_emulator_command(
     emulator::serve(port.port(), core, clock, Some(&hand), |from_host, bytes| {
         if let Some(f) = log.as_mut() {
             use std::io::Write as _;
-            let hex: String = bytes.iter().map(|b| format!("{b:02x}")).collect();
-            let _ = writeln!(f, "{} {hex}", if from_host { '>' } else { '<' });
+            let mut line = String::from(if from_host { "> " } else { "< " });
+            for b in bytes {
+                let _ = write!(line, "{b:02x}");
+            }
+            let _ = writeln!(f, "{line}");
         }
     })
     .map_err(|e| device_failure(&place, e.to_string()))
@@ -624,6 +624,7 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
             | SessionError::NothingToResume { .. }
             | SessionError::Ended { .. }
             | SessionError::Device(..)
+            | SessionError::WrongDevice(..)
             | SessionError::Lsl(_) => e.into(),
             e => device_failure(&format!("--device {address}"), e.to_string()),
         }),

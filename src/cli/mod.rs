@@ -573,6 +573,11 @@ impl From<SessionError> for Failure {
             SessionError::Device(ref device, ref what) => {
                 vec![UserError::new("--device", format!("{device}: {what}"))].into()
             }
+            SessionError::WrongDevice(ref device, what) => vec![UserError::new(
+                "--device",
+                format!("{device}: {what}; no session was started"),
+            )]
+            .into(),
             SessionError::Lost { .. }
             | SessionError::NeverConnected { .. }
             | SessionError::OffTrack { .. }

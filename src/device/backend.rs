@@ -59,6 +59,9 @@ pub struct Reading {
     pub button: bool,
     /// The device reported its watchdog tripped (it renders nothing).
     pub watchdog: bool,
+    /// What is wrong with what comes from the port, while no valid answer
+    /// has (it answers, but not in this device's protocol).
+    pub problem: Option<&'static str>,
 }
 
 /// Link statistics of a backend, for the loop's [`super::haptic::LoopStats`].
@@ -116,6 +119,9 @@ pub struct Tick {
     /// The force sent on every axis, N, device frame (friction along the
     /// track and the walls that hold the hand on it).
     pub force_vector_n: Vector,
+    /// What is wrong with the device's answers, while it has given no
+    /// valid one ([`Reading::problem`]).
+    pub problem: Option<&'static str>,
     /// How far the hand is off the track, m (0 on a one-axis device).
     pub off_track_m: f64,
     /// Device button.
@@ -167,6 +173,7 @@ impl Tick {
             position_m: [x_m, 0.0, 0.0],
             force_vector_n: [force_n, 0.0, 0.0],
             off_track_m: 0.0,
+            problem: None,
             button: false,
             link: LinkState::Connected,
             render: UNKNOWN_RENDER,

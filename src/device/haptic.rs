@@ -396,6 +396,7 @@ fn run(
                 position_m: reading.position_m,
                 force_vector_n: force,
                 off_track_m: super::track::norm(motion.offset),
+                problem: reading.problem,
                 non_finite: !finite,
                 ..Tick::on_axis(now, motion.along, motion.v, along_n, vibration)
             },

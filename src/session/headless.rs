@@ -254,11 +254,13 @@ pub fn run_device<R: Responder>(
             return Ok(session.outcome());
         }
         if !session.is_open() && wall.elapsed().as_secs_f64() > timeout_s {
+            let error = match (session.device_problem(), session.off_track_m()) {
+                (Some(what), _) => SessionError::WrongDevice(req.device.label(), what),
+                (None, Some(off_m)) => SessionError::OffTrack { off_m, timeout_s },
+                (None, None) => SessionError::NeverConnected { timeout_s },
+            };
             session.stop_device()?;
-            return Err(match session.off_track_m() {
-                Some(off_m) => SessionError::OffTrack { off_m, timeout_s },
-                None => SessionError::NeverConnected { timeout_s },
-            });
+            return Err(error);
         }
         if session.lost_for_s().is_some_and(|s| s > timeout_s) {
             session.stop_device()?;

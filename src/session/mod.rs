@@ -166,6 +166,10 @@ pub enum SessionError {
     /// The device could not be opened (nothing written).
     #[error("--device: {0}: {1}")]
     Device(String, String),
+    /// The port answered, but not as the device it was named as; no
+    /// session was started (nothing written).
+    #[error("--device: {0}: {1}; no session was started")]
+    WrongDevice(String, &'static str),
     /// The device answered, but the hand stayed off the track; no session
     /// was started (nothing written).
     #[error(
@@ -230,6 +234,9 @@ pub struct Session<R: Responder> {
     /// While the session waits to start: how far off the track the hand
     /// was at the last tick, if it was too far.
     off_track_m: Option<f64>,
+    /// While the session waits to start: what is wrong with the device's
+    /// answers, if anything.
+    device_problem: Option<&'static str>,
     /// Since when the hand has been on the track, waiting to start.
     on_track_since: Option<Time>,
     sim_selected: bool,
@@ -399,6 +406,7 @@ impl<R: Responder> Session<R> {
             marks: RowMarks::default(),
             off_track_m: None,
             on_track_since: None,
+            device_problem: None,
             sim_selected: false,
             row_render: (0, how),
             lsl: None,
@@ -467,6 +475,9 @@ impl<R: Responder> Session<R> {
             let period = Time::period(how.rate_hz);
             let at = self.start_t + Time::from_secs_saturating(tick.now_s).round_to(period);
             self.t = self.t.max(at);
+            if matches!(self.log, Log::Planned { .. }) {
+                self.device_problem = tick.problem;
+            }
             if tick.link != LinkState::Connected {
                 // The abort takes effect now: ticks read after this one
                 // (the device back, started afresh) are no part of the

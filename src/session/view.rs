@@ -163,6 +163,13 @@ impl<R: Responder> Session<R> {
         self.off_track_m
     }
 
+    /// While the session waits to start: what is wrong with the device's
+    /// answers, if anything.
+    #[must_use]
+    pub fn device_problem(&self) -> Option<&'static str> {
+        self.device_problem
+    }
+
     /// How long the device has not answered, s (None while it answers).
     #[must_use]
     pub fn lost_for_s(&self) -> Option<f64> {

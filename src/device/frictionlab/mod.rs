@@ -74,6 +74,10 @@ const RESEND_AFTER_S: f64 = 0.050;
 /// not yet caught up (a lagging link) keep their meaning.
 const LABELS: usize = 16;
 
+/// Frames that fail their check, with no handshake, before the port is
+/// said to be another device's.
+const GARBAGE_FRAMES: u64 = 20;
+
 /// Telemetry kept per loop tick.
 const TELEMETRY_PER_TICK: usize = 64;
 
@@ -217,11 +221,14 @@ impl Backend for Port {
             }
         }
         self.was_connected = connected;
+        let stats = self.link.stats();
         Reading {
             link,
             position_m: [self.x_m, 0.0, 0.0],
             button: self.button,
             watchdog: self.watchdog,
+            problem: (self.link.capabilities().is_none() && stats.crc_errors + stats.resyncs() > GARBAGE_FRAMES)
+                .then_some("answers with bytes that are not frictionlab's wire protocol (another device on this port?)"),
         }
     }
 

@@ -38,6 +38,10 @@ pub const LOST_AFTER_S: f64 = 0.100;
 /// their way (the board answers each torque frame, and says nothing else).
 pub const SETTLE_S: f64 = 0.020;
 
+/// Bytes that fit no reply, with none that did, before the port is said to
+/// be another device's.
+pub const GARBAGE_BYTES: u64 = 64;
+
 /// The loop rate the vendor's examples run the board at, Hz.
 pub const RATE_HZ: f64 = 1000.0;
 
@@ -182,6 +186,9 @@ pub struct Board {
     opens: u64,
     replies: Replies,
     pose: Option<Pose>,
+    /// The last angles read, degrees, and how many replies so far.
+    angles: Option<[f64; 2]>,
+    replies_read: u64,
     last_reply_s: Option<f64>,
     /// When the board was last set up.
     setup_s: f64,
@@ -209,12 +216,28 @@ impl Board {
             opens: 0,
             replies: Replies::default(),
             pose: None,
+            angles: None,
+            replies_read: 0,
             last_reply_s: None,
             setup_s: 0.0,
             link: LinkState::Connecting,
             hand: super::hand_link::Sender::new(path),
             bytes: [0; 256],
         }
+    }
+
+    /// What is wrong with what the port sends, while no reply has come.
+    fn problem(&self) -> Option<&'static str> {
+        (self.replies_read == 0 && self.replies.dropped > GARBAGE_BYTES).then_some(
+            "answers with bytes that are not a 2DIY's replies (another device on this port?)",
+        )
+    }
+
+    /// The last joint angles read, degrees (joints 1 and 2), and how many
+    /// replies have been read.
+    #[must_use]
+    pub fn angles(&self) -> (Option<[f64; 2]>, u64) {
+        (self.angles, self.replies_read)
     }
 
     /// The joint torques for force `f` at the last angles read: zero before
@@ -261,19 +284,28 @@ impl Backend for Board {
             self.last_reply_s = None;
         }
         if now_s - self.setup_s < SETTLE_S {
-            self.replies = Replies::default();
+            self.replies.clear();
             return Reading {
                 link: LinkState::Connecting,
                 position_m: [0.0; 3],
                 button: false,
                 watchdog: false,
+                problem: self.problem(),
             };
         }
-        let (links, pose, last) = (&self.config.links, &mut self.pose, &mut self.last_reply_s);
+        let links = &self.config.links;
+        let (pose, last, read, count) = (
+            &mut self.pose,
+            &mut self.last_reply_s,
+            &mut self.angles,
+            &mut self.replies_read,
+        );
         self.replies
             .feed(&self.config.wiring, &self.bytes[..n], |angles| {
                 *pose = Some(pantograph::forward(links, angles));
                 *last = Some(now_s);
+                *read = Some(angles);
+                *count += 1;
             });
         self.link = match self.last_reply_s {
             None => LinkState::Connecting,
@@ -286,6 +318,7 @@ impl Backend for Board {
             position_m: p,
             button: false,
             watchdog: false,
+            problem: self.problem(),
         }
     }
 

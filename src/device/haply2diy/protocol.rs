@@ -237,6 +237,12 @@ pub struct Replies {
 }
 
 impl Replies {
+    /// Forgets the bytes of a reply begun (the count of bytes dropped
+    /// stays).
+    pub fn clear(&mut self) {
+        self.buffer.clear();
+    }
+
     /// Feeds bytes; hands each whole reply's angles to `on_reply`.
     pub fn feed(&mut self, wiring: &Wiring, bytes: &[u8], mut on_reply: impl FnMut([f64; 2])) {
         self.buffer.extend_from_slice(bytes);
