@@ -549,3 +549,57 @@ let x = crate::results::csv::opt(1);
         Some("registry".into())
     );
 }
+
+/// Issue 43: every device is a folder under `src/device/` (a backend,
+/// listed in `device::KINDS`); the haptic loop, the seam it drives, the
+/// session and the window name none of them.
+#[test]
+fn the_loop_the_session_and_the_window_name_no_device_backend() {
+    let src = src_root();
+    let backends: Vec<String> = std::fs::read_dir(src.join("device"))
+        .unwrap()
+        .filter_map(Result::ok)
+        .filter(|e| e.path().join("mod.rs").is_file())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    for kind in frictionlab::device::KINDS {
+        assert!(
+            backends.iter().any(|b| b == kind.name),
+            "the kind {} is a folder src/device/{}/",
+            kind.name,
+            kind.name
+        );
+    }
+    let mut files = vec![
+        src.join("device/haptic.rs"),
+        src.join("device/backend.rs"),
+        src.join("device/track.rs"),
+    ];
+    rust_files(&src.join("session"), &mut files);
+    rust_files(&src.join("gui"), &mut files);
+    let (mut into_device, mut named) = (0_usize, Vec::new());
+    for file in &files {
+        let here = module_path(&src, file);
+        let text = std::fs::read_to_string(file).unwrap();
+        for p in paths(&code(&text), &here) {
+            if p.first().map(String::as_str) != Some("device") {
+                continue;
+            }
+            into_device += 1;
+            if p.get(1).is_some_and(|b| backends.contains(b)) {
+                named.push(format!("{}: {}", file.display(), p.join("::")));
+            }
+        }
+    }
+    println!(
+        "backends {backends:?}; {} files of the loop, session and window; {into_device} paths into device, {} naming a backend",
+        files.len(),
+        named.len()
+    );
+    assert!(backends.len() >= 3, "{backends:?}");
+    assert!(
+        into_device > 10,
+        "the checked files do use the device layer"
+    );
+    assert!(named.is_empty(), "{named:#?}");
+}

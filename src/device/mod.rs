@@ -10,6 +10,8 @@ pub mod frictionlab;
 pub mod hand_link;
 pub mod haply2diy;
 pub mod haptic;
+#[cfg(test)]
+mod loopback;
 pub mod pty;
 pub mod sim;
 pub mod track;
@@ -41,7 +43,12 @@ pub struct Kind {
 pub type Opener = fn(&str, &Settings) -> Result<Box<dyn backend::Backend>, String>;
 
 /// The kinds of device, in the order `frictionlab ports` lists them.
-pub const KINDS: &[&Kind] = &[&frictionlab::KIND, &haply2diy::KIND];
+pub const KINDS: &[&Kind] = &[
+    &frictionlab::KIND,
+    &haply2diy::KIND,
+    #[cfg(test)]
+    &loopback::KIND,
+];
 
 /// A device found on the machine.
 #[derive(Debug, Clone, PartialEq, Eq)]
