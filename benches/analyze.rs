@@ -56,6 +56,7 @@ fn generate(dir: &Path) {
             participant_index: p,
             session: 1,
             device: "sim".into(),
+            device_settings: None,
             responder: "sim".into(),
             planned_trials: 1000,
             population: None,

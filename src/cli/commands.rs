@@ -307,6 +307,35 @@ pub(super) fn ports_command() -> Result<(), Failure> {
     emit(&lines)
 }
 
+/// `device-emulator inverse3[:HOST:PORT]`.
+pub(super) fn inverse3_emulator_command(
+    target: &str,
+    version: Option<String>,
+    no_device: bool,
+) -> Result<(), Failure> {
+    use crate::device::inverse3::{self, emulator};
+    let place = format!("inverse3:{target}");
+    let address =
+        inverse3::address(target).map_err(|e| Failure::from(vec![UserError::new(&place, e)]))?;
+    let listener = std::net::TcpListener::bind(&address)
+        .map_err(|e| device_failure(&place, format!("cannot listen on {address}: {e}")))?;
+    let options = emulator::Options {
+        version: version.unwrap_or_else(|| emulator::VERSION.to_owned()),
+        with_device: !no_device,
+    };
+    emit(&format!(
+        "Inverse Service emulator {} on {address}{}\n",
+        options.version,
+        if no_device {
+            " (no Inverse3 on it)"
+        } else {
+            ""
+        }
+    ))?;
+    let track = inverse3::Config::default().track;
+    emulator::serve(&listener, track, &options).map_err(|e| device_failure(&place, e.to_string()))
+}
+
 /// `device-emulator haply2diy:PATH`.
 pub(super) fn haply2diy_emulator_command(
     path: &Path,

@@ -16,9 +16,9 @@ mod commands;
 
 use commands::{
     analyze_command, claims_command, emulator_command, firmware_qemu_command, gui_command,
-    haply2diy_emulator_command, identify_command, models_json, ports_command, power_command,
-    power_merge_command, render_command, run_command, simulate_command, validate_command,
-    validation_command,
+    haply2diy_emulator_command, identify_command, inverse3_emulator_command, models_json,
+    ports_command, power_command, power_merge_command, render_command, run_command,
+    simulate_command, validate_command, validation_command,
 };
 
 /// `--device`: `sim` (the simulated apparatus), a serial port's path (our
@@ -183,10 +183,20 @@ enum Command {
     /// until a host says Hello, serving host after host until stopped.
     /// `haply2diy:PATH`: a Haply 2DIY board (its firmware's protocol) on a
     /// pantograph, powered up at the vendor's calibration pose.
+    /// `inverse3[:HOST:PORT]`: a Haply Inverse Service (default
+    /// 127.0.0.1:10001) with one Inverse3 on it.
     DeviceEmulator {
-        /// `PATH` or `haply2diy:PATH`: a serial port (or a link to one,
-        /// left in place), or where to link a new pseudo-terminal.
+        /// `PATH`, `haply2diy:PATH` (a serial port, or a link to one, left
+        /// in place, or where to link a new pseudo-terminal), or
+        /// `inverse3[:HOST:PORT]` (where to listen).
         path: String,
+        /// inverse3: the version the service states (to try a host against
+        /// another version).
+        #[arg(long, value_name = "VERSION")]
+        service_version: Option<String>,
+        /// inverse3: a service with no Inverse3 on it.
+        #[arg(long)]
+        no_device: bool,
         /// haply2diy: advance the physics 1 ms per torque frame instead of
         /// in real time (two hosts that send the same bytes read the same
         /// angles back).
@@ -472,11 +482,18 @@ pub fn main() -> ExitCode {
         Command::Ports => ports_command(),
         Command::DeviceEmulator {
             path,
+            service_version,
+            no_device,
             lockstep,
             transcript,
             on_board,
             link_delay_ms,
         } => match path.strip_prefix("haply2diy:") {
+            _ if path == "inverse3" || path.starts_with("inverse3:") => inverse3_emulator_command(
+                path.trim_start_matches("inverse3").trim_start_matches(':'),
+                service_version,
+                no_device,
+            ),
             Some(path) => {
                 haply2diy_emulator_command(Path::new(path), lockstep, transcript.as_deref())
             }

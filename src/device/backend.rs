@@ -216,6 +216,12 @@ pub trait Backend: Send {
         super::track::Track::axis()
     }
 
+    /// The device's settings as it reported them and as they were chosen,
+    /// for the session header (a service's filters, a calibration).
+    fn settings(&self) -> Option<serde_json::Value> {
+        None
+    }
+
     /// The device's own rendering, if it renders models on board.
     fn on_board(&mut self) -> Option<&mut dyn OnBoard> {
         None

@@ -3,13 +3,14 @@
 //! that the haptic loop ([`haptic`]) drives, rendering friction along a
 //! [`track::Track`]. Each kind of device is one folder, listed once in
 //! [`KINDS`]: [`frictionlab`] (our own board and wire protocol),
-//! [`haply2diy`] (the Haply 2DIY).
+//! [`haply2diy`] (the Haply 2DIY), [`inverse3`] (the Haply Inverse3).
 
 pub mod backend;
 pub mod frictionlab;
 pub mod hand_link;
 pub mod haply2diy;
 pub mod haptic;
+pub mod inverse3;
 #[cfg(test)]
 mod loopback;
 pub mod pty;
@@ -46,6 +47,7 @@ pub type Opener = fn(&str, &Settings) -> Result<Box<dyn backend::Backend>, Strin
 pub const KINDS: &[&Kind] = &[
     &frictionlab::KIND,
     &haply2diy::KIND,
+    &inverse3::KIND,
     #[cfg(test)]
     &loopback::KIND,
 ];

@@ -47,8 +47,12 @@ pub struct Header<K: Kinds> {
     pub participant_index: u32,
     /// Session number (1-based).
     pub session: u32,
-    /// Device (`sim` or a port path).
+    /// Device (`sim`, a port path, or `KIND:TARGET`).
     pub device: String,
+    /// The device's settings as it reported them and as they were chosen
+    /// (a service's filters, a calibration, the track), where it has any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub device_settings: Option<serde_json::Value>,
     /// Responder (`sim` or `gui`).
     pub responder: String,
     /// Number of planned trials.

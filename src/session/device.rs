@@ -38,6 +38,8 @@ pub struct DeviceStatus {
 /// A haptic loop on a serial port, with what the session tracks of it.
 pub(super) struct Port {
     haptic: HapticLoop,
+    /// The device's settings, for the session header.
+    settings: Option<serde_json::Value>,
     /// The device's axes.
     pub(super) axes: usize,
     pub(super) rate_hz: f64,
@@ -54,6 +56,7 @@ impl Port {
     pub(super) fn new(haptic: HapticLoop, axes: usize, rate_hz: f64, force_limit_n: f64) -> Self {
         Port {
             haptic,
+            settings: None,
             axes,
             rate_hz,
             force_limit_n,
@@ -188,18 +191,17 @@ impl Device {
                 // A device slower than the model's rate renders it at its own
                 // (each render's `rendering` says at which).
                 let caps = backend.capabilities();
+                let settings = backend.settings();
                 let step = StepParams {
                     rate_hz: rate_hz.min(caps.max_rate_hz),
                     ..StepParams::default()
                 };
                 let haptic =
                     HapticLoop::start(backend, step, true).map_err(super::SessionError::Loop)?;
-                Device::Port(Box::new(Port::new(
-                    haptic,
-                    caps.axes,
-                    step.rate_hz,
-                    step.force_limit.newtons(),
-                )))
+                let mut port =
+                    Port::new(haptic, caps.axes, step.rate_hz, step.force_limit.newtons());
+                port.settings = settings;
+                Device::Port(Box::new(port))
             }
         })
     }
@@ -279,6 +281,14 @@ impl Device {
             true
         } else {
             false
+        }
+    }
+
+    /// The device's settings, for the session header.
+    pub(super) fn settings(&self) -> Option<serde_json::Value> {
+        match self {
+            Device::Port(port) => port.settings.clone(),
+            _ => None,
         }
     }
 

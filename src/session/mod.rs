@@ -370,6 +370,7 @@ impl<R: Responder> Session<R> {
             log.open()?;
         }
         let device = Device::open(device, rate_hz, responder.hand_mass_kg())?;
+        log.set_device_settings(device.settings());
         // How the simulated device steps, for its streams' rows (a port's
         // ticks say how each was stepped).
         let how = device.sim_how().unwrap_or(How {

@@ -209,6 +209,7 @@ pub fn new_session(
         participant_index,
         session,
         device: req.device.label(),
+        device_settings: None,
         responder: responder.into(),
         planned_trials: source.planned().unwrap_or(0),
         population: req.population.cloned(),
@@ -233,6 +234,14 @@ impl Planned {
         match &self.opening {
             Opening::Resume { read, .. } => &read.header,
             Opening::New { header, .. } => header,
+        }
+    }
+
+    /// Records the device's settings in a new session's header (a resumed
+    /// session keeps its own header).
+    pub(super) fn set_device_settings(&mut self, settings: Option<serde_json::Value>) {
+        if let Opening::New { header, .. } = &mut self.opening {
+            header.device_settings = settings;
         }
     }
 
@@ -409,6 +418,14 @@ impl Log {
                 *self = Log::Open(Box::new(open));
                 self.open()
             }
+        }
+    }
+
+    /// Records the device's settings in the header of a session not yet
+    /// written.
+    pub(super) fn set_device_settings(&mut self, settings: Option<serde_json::Value>) {
+        if let Log::Planned { planned, .. } = self {
+            planned.set_device_settings(settings);
         }
     }
 

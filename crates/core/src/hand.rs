@@ -21,6 +21,7 @@ pub const INTEGRAL_LIMIT_N: f64 = 12.0;
 
 /// What the hand aims for and how stiffly: the reference and the impedance.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct HandDrive {
     /// Reference position, m.
     pub x_m: f64,

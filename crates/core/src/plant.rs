@@ -387,6 +387,12 @@ impl Rig {
         self.click |= click;
     }
 
+    /// The measured position after the last step, m.
+    #[must_use]
+    pub fn x_m(&self) -> f64 {
+        self.x_m
+    }
+
     /// Puts the apparatus at rest at `x_m`.
     pub fn place(&mut self, x_m: f64) {
         self.device.reset(x_m);

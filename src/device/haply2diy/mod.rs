@@ -343,6 +343,10 @@ impl Backend for Board {
         self.config.track
     }
 
+    fn settings(&self) -> Option<serde_json::Value> {
+        serde_json::to_value(self.config).ok()
+    }
+
     fn stats(&self) -> LinkStats {
         LinkStats {
             resyncs: self.replies.dropped,
