@@ -1,0 +1,173 @@
+//! Issue 43: sessions on a Haply Inverse3 through the emulated Haply
+//! Inverse Service (`frictionlab device-emulator inverse3:HOST:PORT`), and
+//! the one-line refusals of a service that is missing, speaks another
+//! version, lists no Inverse3, or has the hand out of the workspace.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::missing_panics_doc,
+    reason = "tests"
+)]
+
+mod common;
+
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use frictionlab::kinds::Registry;
+use frictionlab::results::read_log;
+
+const BIN: &str = env!("CARGO_BIN_EXE_frictionlab");
+
+/// A free loopback port.
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// Starts an emulated service on a free port and waits until it answers.
+fn service(options: &[&str]) -> (Child, String) {
+    let address = format!("127.0.0.1:{}", free_port());
+    let child = Command::new(BIN)
+        .arg("device-emulator")
+        .arg(format!("inverse3:{address}"))
+        .args(options)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while std::net::TcpStream::connect(&address).is_err() && start.elapsed() < Duration::from_secs(10)
+    {
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    (child, address)
+}
+
+fn stop(mut child: Child) {
+    let _ = child.kill();
+    let _ = child.wait();
+}
+
+fn run(protocol: &str, out: &Path, device: &str, extra: &[&str]) -> Child {
+    Command::new(BIN)
+        .arg("run")
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("protocols/{protocol}.json")))
+        .args(["--participant", "i3", "--responder", "sim", "--out"])
+        .arg(out)
+        .args(["--device", device])
+        .args(extra)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// The largest distance of the hand from the default track (y = -0.12,
+/// z = 0.15 m) on each held axis over every row under `out`, and the rows.
+fn largest_offsets(out: &Path) -> ([f64; 2], usize) {
+    let (mut worst, mut rows) = ([0.0_f64; 2], 0_usize);
+    for e in std::fs::read_dir(out.join("streams")).unwrap() {
+        let text = std::fs::read_to_string(e.unwrap().path()).unwrap();
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let col = |name: &str| header.iter().position(|c| *c == name).expect(name);
+        let (y, z) = (col("device_y_m"), col("device_z_m"));
+        for l in lines {
+            let v: Vec<f64> = l.split(',').map(|c| c.parse().unwrap_or(f64::NAN)).collect();
+            worst[0] = worst[0].max((v[y] + 0.12).abs());
+            worst[1] = worst[1].max((v[z] - 0.15).abs());
+            rows += 1;
+        }
+    }
+    (worst, rows)
+}
+
+/// magnitude-quick and fitts-quick on the emulated Inverse3 with the
+/// simulated participant: killed with SIGKILL after two trials, resumed,
+/// every trial completed exactly once, the hand within 1 mm of the track on
+/// both held axes in every row, and the service's filters in the header.
+#[test]
+fn quick_sessions_run_on_the_emulated_inverse3_resume_after_kill_9_and_keep_the_hand_on_the_track() {
+    let dir = tempfile::tempdir().unwrap();
+    let (emu, address) = service(&[]);
+    let device = format!("inverse3:{address}");
+    for (protocol, stem) in [("magnitude-quick", "magnitudequick"), ("fitts-quick", "fittsquick")] {
+        let out = dir.path().join(protocol);
+        let log = out.join(format!("logs/study-{stem}_subject-i3_session-1_log.jsonl"));
+        let mut first = run(protocol, &out, &device, &[]);
+        let start = Instant::now();
+        while read_log::<Registry>(&log).map_or(0, |l| l.trials.len()) < 2
+            && start.elapsed() < Duration::from_mins(1)
+        {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        first.kill().unwrap(); // SIGKILL
+        first.wait().unwrap();
+        let before = read_log::<Registry>(&log).unwrap();
+        assert!(!before.ended && before.trials.len() >= 2, "{protocol}: killed after 2 trials");
+        let o = run(protocol, &out, &device, &["--resume"]).wait_with_output().unwrap();
+        assert!(o.status.success(), "{protocol}: {}", String::from_utf8_lossy(&o.stderr));
+        let read = read_log::<Registry>(&log).unwrap();
+        let planned = read.header.planned_trials;
+        assert!(read.ended, "{protocol}");
+        assert_eq!(
+            common::completed_trials(&read),
+            (0..planned).collect::<Vec<_>>(),
+            "{protocol}: every planned trial completed exactly once"
+        );
+        let settings = read.header.device_settings.as_ref().expect("device settings in the header");
+        let filters = &settings["device_config"]["filters"];
+        assert_eq!(filters["force_gate"]["gain"], 0.3, "{settings}");
+        assert_eq!(settings["device_config"]["gravity_compensation"]["enabled"], true);
+        let (worst, rows) = largest_offsets(&out);
+        println!(
+            "{protocol}: {planned} trials ({} before the kill), {rows} stream rows, hand at most {:.3} mm across and {:.3} mm vertically off the track",
+            before.trials.len(),
+            worst[0] * 1e3,
+            worst[1] * 1e3
+        );
+        assert!(rows > 1000, "{protocol}: {rows} rows");
+        assert!(worst[0] <= 0.001 && worst[1] <= 0.001, "{protocol}: {worst:?} m off the track");
+    }
+    stop(emu);
+}
+
+/// Exit 2, one line naming the device and what is wrong, nothing written.
+fn refused(device: &str, extra: &[&str], says: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("results");
+    let o = run("magnitude-quick", &out, device, extra).wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    println!("{device} {extra:?}: exit {:?}: {}", o.status.code(), err.trim());
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains(device) && err.contains(says), "{err}");
+    assert!(!out.join("logs").exists(), "nothing written");
+}
+
+/// A service that is not there, one that states version 3.1.1, one that
+/// lists no Inverse3, and a hand out of the workspace (the track moved 30
+/// cm away), each refused with one line and nothing written.
+#[test]
+fn a_missing_old_empty_or_out_of_reach_service_is_bad_input_and_writes_nothing() {
+    refused(&format!("inverse3:127.0.0.1:{}", free_port()), &[], "no Haply Inverse Service");
+    let (emu, address) = service(&["--service-version", "3.1.1"]);
+    refused(&format!("inverse3:{address}"), &[], "version 3.1.1");
+    stop(emu);
+    let (emu, address) = service(&["--no-device"]);
+    refused(&format!("inverse3:{address}"), &[], "lists no Inverse3");
+    stop(emu);
+    let (emu, address) = service(&[]);
+    refused(
+        &format!("inverse3:{address}"),
+        &["--device-set", "track.origin_m=[0.3, -0.12, 0.15]"],
+        "not in the workspace",
+    );
+    refused(&format!("inverse3:{address}"), &["--device-set", "wall_stiffness_n_m=-5"], "at least 0");
+    stop(emu);
+}
