@@ -41,7 +41,8 @@ fn service(options: &[&str]) -> (Child, String) {
         .spawn()
         .unwrap();
     let start = Instant::now();
-    while std::net::TcpStream::connect(&address).is_err() && start.elapsed() < Duration::from_secs(10)
+    while std::net::TcpStream::connect(&address).is_err()
+        && start.elapsed() < Duration::from_secs(10)
     {
         std::thread::sleep(Duration::from_millis(10));
     }
@@ -78,7 +79,10 @@ fn largest_offsets(out: &Path) -> ([f64; 2], usize) {
         let col = |name: &str| header.iter().position(|c| *c == name).expect(name);
         let (y, z) = (col("device_y_m"), col("device_z_m"));
         for l in lines {
-            let v: Vec<f64> = l.split(',').map(|c| c.parse().unwrap_or(f64::NAN)).collect();
+            let v: Vec<f64> = l
+                .split(',')
+                .map(|c| c.parse().unwrap_or(f64::NAN))
+                .collect();
             worst[0] = worst[0].max((v[y] + 0.12).abs());
             worst[1] = worst[1].max((v[z] - 0.15).abs());
             rows += 1;
@@ -92,11 +96,15 @@ fn largest_offsets(out: &Path) -> ([f64; 2], usize) {
 /// every trial completed exactly once, the hand within 1 mm of the track on
 /// both held axes in every row, and the service's filters in the header.
 #[test]
-fn quick_sessions_run_on_the_emulated_inverse3_resume_after_kill_9_and_keep_the_hand_on_the_track() {
+fn quick_sessions_run_on_the_emulated_inverse3_resume_after_kill_9_and_keep_the_hand_on_the_track()
+{
     let dir = tempfile::tempdir().unwrap();
     let (emu, address) = service(&[]);
     let device = format!("inverse3:{address}");
-    for (protocol, stem) in [("magnitude-quick", "magnitudequick"), ("fitts-quick", "fittsquick")] {
+    for (protocol, stem) in [
+        ("magnitude-quick", "magnitudequick"),
+        ("fitts-quick", "fittsquick"),
+    ] {
         let out = dir.path().join(protocol);
         let log = out.join(format!("logs/study-{stem}_subject-i3_session-1_log.jsonl"));
         let mut first = run(protocol, &out, &device, &[]);
@@ -109,9 +117,18 @@ fn quick_sessions_run_on_the_emulated_inverse3_resume_after_kill_9_and_keep_the_
         first.kill().unwrap(); // SIGKILL
         first.wait().unwrap();
         let before = read_log::<Registry>(&log).unwrap();
-        assert!(!before.ended && before.trials.len() >= 2, "{protocol}: killed after 2 trials");
-        let o = run(protocol, &out, &device, &["--resume"]).wait_with_output().unwrap();
-        assert!(o.status.success(), "{protocol}: {}", String::from_utf8_lossy(&o.stderr));
+        assert!(
+            !before.ended && before.trials.len() >= 2,
+            "{protocol}: killed after 2 trials"
+        );
+        let o = run(protocol, &out, &device, &["--resume"])
+            .wait_with_output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "{protocol}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
         let read = read_log::<Registry>(&log).unwrap();
         let planned = read.header.planned_trials;
         assert!(read.ended, "{protocol}");
@@ -120,10 +137,17 @@ fn quick_sessions_run_on_the_emulated_inverse3_resume_after_kill_9_and_keep_the_
             (0..planned).collect::<Vec<_>>(),
             "{protocol}: every planned trial completed exactly once"
         );
-        let settings = read.header.device_settings.as_ref().expect("device settings in the header");
+        let settings = read
+            .header
+            .device_settings
+            .as_ref()
+            .expect("device settings in the header");
         let filters = &settings["device_config"]["filters"];
         assert_eq!(filters["force_gate"]["gain"], 0.3, "{settings}");
-        assert_eq!(settings["device_config"]["gravity_compensation"]["enabled"], true);
+        assert_eq!(
+            settings["device_config"]["gravity_compensation"]["enabled"],
+            true
+        );
         let (worst, rows) = largest_offsets(&out);
         println!(
             "{protocol}: {planned} trials ({} before the kill), {rows} stream rows, hand at most {:.3} mm across and {:.3} mm vertically off the track",
@@ -132,7 +156,10 @@ fn quick_sessions_run_on_the_emulated_inverse3_resume_after_kill_9_and_keep_the_
             worst[1] * 1e3
         );
         assert!(rows > 1000, "{protocol}: {rows} rows");
-        assert!(worst[0] <= 0.001 && worst[1] <= 0.001, "{protocol}: {worst:?} m off the track");
+        assert!(
+            worst[0] <= 0.001 && worst[1] <= 0.001,
+            "{protocol}: {worst:?} m off the track"
+        );
     }
     stop(emu);
 }
@@ -141,9 +168,15 @@ fn quick_sessions_run_on_the_emulated_inverse3_resume_after_kill_9_and_keep_the_
 fn refused(device: &str, extra: &[&str], says: &str) {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("results");
-    let o = run("magnitude-quick", &out, device, extra).wait_with_output().unwrap();
+    let o = run("magnitude-quick", &out, device, extra)
+        .wait_with_output()
+        .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
-    println!("{device} {extra:?}: exit {:?}: {}", o.status.code(), err.trim());
+    println!(
+        "{device} {extra:?}: exit {:?}: {}",
+        o.status.code(),
+        err.trim()
+    );
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(err.contains(device) && err.contains(says), "{err}");
@@ -155,7 +188,11 @@ fn refused(device: &str, extra: &[&str], says: &str) {
 /// cm away), each refused with one line and nothing written.
 #[test]
 fn a_missing_old_empty_or_out_of_reach_service_is_bad_input_and_writes_nothing() {
-    refused(&format!("inverse3:127.0.0.1:{}", free_port()), &[], "no Haply Inverse Service");
+    refused(
+        &format!("inverse3:127.0.0.1:{}", free_port()),
+        &[],
+        "no Haply Inverse Service",
+    );
     let (emu, address) = service(&["--service-version", "3.1.1"]);
     refused(&format!("inverse3:{address}"), &[], "version 3.1.1");
     stop(emu);
@@ -168,6 +205,10 @@ fn a_missing_old_empty_or_out_of_reach_service_is_bad_input_and_writes_nothing()
         &["--device-set", "track.origin_m=[0.3, -0.12, 0.15]"],
         "not in the workspace",
     );
-    refused(&format!("inverse3:{address}"), &["--device-set", "wall_stiffness_n_m=-5"], "at least 0");
+    refused(
+        &format!("inverse3:{address}"),
+        &["--device-set", "wall_stiffness_n_m=-5"],
+        "at least 0",
+    );
     stop(emu);
 }

@@ -299,9 +299,13 @@ fn http(stream: &mut TcpStream, options: &Options) -> std::io::Result<()> {
         (
             "200 OK",
             serde_json::json!({
+                "build_time": "",
+                "git_branch": "",
+                "git_describe": options.version,
+                "git_hash": "",
+                "git_tag": options.version,
                 "project_name": "haply-inverse-service (frictionlab emulator)",
                 "project_version": options.version,
-                "git_tag": options.version,
             })
             .to_string(),
         )

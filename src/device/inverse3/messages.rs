@@ -1,7 +1,7 @@
 //! The Inverse Service's WebSocket messages we send and read (service 3.5,
 //! docs.haply.co: websocket protocol, control commands, JSON conventions),
 //! in the shapes of the vendor's `haply` crate 1.3.1 (`ServiceMsg`,
-//! `ServiceData`, `ServiceState`): `tests/peers/haply` parses every message
+//! `ServiceData`, `ServiceState`): `crates/haply-peer` parses every message
 //! our driver and our emulated service send with the crate's own types.
 //!
 //! Client to service: `{"session": {...}, "inverse3": [{"device_id": ...,

@@ -8,7 +8,7 @@
 //! (a system package, or minutes of building it from source) for a
 //! service on loopback that needs no TLS at all, and it brings a second
 //! nalgebra. Its wire types are the reference instead:
-//! `tests/peers/haply/` parses every message our driver and emulator send
+//! `crates/haply-peer/` parses every message our driver and emulator send
 //! with them, and connects the crate's own `HaplyDevice` to our emulator.
 //!
 //! [`open`] checks the service's version, connects, reads the inventory,
