@@ -83,6 +83,10 @@ pub struct Row {
     /// The device's loop tick number (column `tick`; empty where the
     /// device gave none, absent in older streams).
     pub tick: Option<u32>,
+    /// The normal force the model rendered with where it was the hand's
+    /// press (column `normal_force_n` of a multi-axis device's stream;
+    /// empty otherwise).
+    pub normal_n: Option<f64>,
 }
 
 /// What a re-render found.
@@ -229,6 +233,7 @@ pub fn parse_stream(file: &str, text: &str) -> Result<Vec<Row>, Problem> {
     ];
     const OPTIONAL: &str = "watchdog";
     const TICK: &str = "tick";
+    const NORMAL: &str = "normal_force_n";
     let mut lines = text.lines();
     let header = lines.next().unwrap_or_default();
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
@@ -245,6 +250,7 @@ pub fn parse_stream(file: &str, text: &str) -> Result<Vec<Row>, Problem> {
         .collect::<Result<_, _>>()?;
     let optional = names.iter().position(|n| *n == OPTIONAL);
     let tick_at = names.iter().position(|n| *n == TICK);
+    let normal_at = names.iter().position(|n| *n == NORMAL);
     let mut rows = Vec::new();
     for (i, line) in lines.enumerate() {
         if line.trim().is_empty() {
@@ -280,6 +286,10 @@ pub fn parse_stream(file: &str, text: &str) -> Result<Vec<Row>, Problem> {
                 )
             })?),
         };
+        let normal_n = match normal_at.map(|c| (c, cells.get(c).map_or("", |s| s.trim()))) {
+            None | Some((_, "")) => None,
+            Some((c, _)) => Some(number(c, NORMAL)?),
+        };
         #[expect(
             clippy::cast_possible_truncation,
             clippy::cast_sign_loss,
@@ -303,6 +313,7 @@ pub fn parse_stream(file: &str, text: &str) -> Result<Vec<Row>, Problem> {
             selected: v[6] != 0.0,
             watchdog,
             tick,
+            normal_n,
         });
     }
     Ok(rows)
@@ -443,6 +454,9 @@ fn replay<T: Real>(rows: &[Row], entries: &[RenderEntry], start: usize, out: &mu
             }
             current = Some(row.render);
             vibrates = e.model.as_ref().is_some_and(ModelParams::has_vibration);
+        }
+        if let Some(n) = row.normal_n {
+            renderer.set_pressed_normal(T::of(n));
         }
         let o = renderer.step(
             dt,

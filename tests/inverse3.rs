@@ -212,3 +212,70 @@ fn a_missing_old_empty_or_out_of_reach_service_is_bad_input_and_writes_nothing()
     );
     stop(emu);
 }
+
+/// Seed 000's `F_N = k y` on the emulated Inverse3: a paired-comparison
+/// trial whose god objects take their normal force from the hand's press
+/// (`tests/fixtures/paired-press.json`, k = 2000 N/m). In every stream row
+/// the logged normal force is k times the press into the surface, the
+/// press (and so the friction limit, mu_s F_N) varies with the hand's, and
+/// the stream re-renders with the logged normal forces.
+#[test]
+fn the_normal_force_follows_the_press_on_the_emulated_inverse3() {
+    let dir = tempfile::tempdir().unwrap();
+    let (emu, address) = service(&[]);
+    let out = dir.path().join("results");
+    let protocol = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/paired-press.json");
+    let o = Command::new(BIN)
+        .arg("run")
+        .arg(&protocol)
+        .args(["--participant", "i3", "--responder", "sim", "--out"])
+        .arg(&out)
+        .args(["--device", &format!("inverse3:{address}")])
+        .output()
+        .unwrap();
+    stop(emu);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stream = std::fs::read_dir(out.join("streams"))
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    let text = std::fs::read_to_string(&stream).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|c| *c == name).expect(name);
+    let (z, n) = (col("device_z_m"), col("normal_force_n"));
+    let (mut rows, mut worst, mut lo, mut hi) = (0_usize, 0.0_f64, f64::INFINITY, 0.0_f64);
+    for l in lines {
+        let cells: Vec<&str> = l.split(',').collect();
+        let Ok(normal) = cells[n].parse::<f64>() else {
+            continue; // the reference phase renders no model
+        };
+        let press = (0.15 - cells[z].parse::<f64>().unwrap()).max(0.0);
+        worst = worst.max((normal - 2000.0 * press).abs());
+        lo = lo.min(normal);
+        hi = hi.max(normal);
+        rows += 1;
+    }
+    println!(
+        "{rows} rows with a pressed normal force: F_N from {lo:.3} to {hi:.3} N; largest |F_N - k y| {worst:e} N"
+    );
+    assert!(rows > 1000, "{rows}");
+    assert!(worst < 1e-9, "F_N = k y row by row: {worst}");
+    assert!(
+        hi > 2.0 * lo && lo > 0.0,
+        "the press varies: {lo} .. {hi} N"
+    );
+    let r = Command::new(BIN)
+        .arg("rerender")
+        .arg(&stream)
+        .output()
+        .unwrap();
+    let report: serde_json::Value = serde_json::from_slice(&r.stdout).unwrap();
+    println!(
+        "rerender: bit_exact {}, rows {}",
+        report["bit_exact"], report["rows"]
+    );
+    assert_eq!(report["bit_exact"], true, "{report}");
+}

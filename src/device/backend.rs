@@ -122,6 +122,10 @@ pub struct Tick {
     /// What is wrong with the device's answers, while it has given no
     /// valid one ([`Reading::problem`]).
     pub problem: Option<&'static str>,
+    /// The normal force the model rendered with, N, where it is the hand's
+    /// press into the track's surface (seed 000's `F_N = k y`; a device
+    /// with a vertical axis).
+    pub normal_n: Option<f64>,
     /// How far the hand is off the track, m (0 on a one-axis device).
     pub off_track_m: f64,
     /// Device button.
@@ -173,6 +177,7 @@ impl Tick {
             position_m: [x_m, 0.0, 0.0],
             force_vector_n: [force_n, 0.0, 0.0],
             off_track_m: 0.0,
+            normal_n: None,
             problem: None,
             button: false,
             link: LinkState::Connected,

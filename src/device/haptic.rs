@@ -356,7 +356,14 @@ fn run(
             continue;
         }
 
-        // Render on the host, crossfading after a model change.
+        // Render on the host, crossfading after a model change; where the
+        // device has a vertical axis, a model whose normal force is the
+        // press takes the hand's press into the surface (below it: the
+        // offset's vertical part is negative).
+        let normal_n = device
+            .capabilities()
+            .vertical_axis
+            .and_then(|axis| renderer.press(-motion.offset[axis]));
         let out = renderer.step(
             dt,
             Input {
@@ -396,6 +403,7 @@ fn run(
                 position_m: reading.position_m,
                 force_vector_n: force,
                 off_track_m: super::track::norm(motion.offset),
+                normal_n,
                 problem: reading.problem,
                 non_finite: !finite,
                 ..Tick::on_axis(now, motion.along, motion.v, along_n, vibration)

@@ -529,7 +529,11 @@ impl<R: Responder> Session<R> {
                 selected: tick.selected,
                 watchdog: tick.watchdog,
                 device_tick: tick.device_tick,
-                axes: (port.axes > 1).then_some((tick.position_m, tick.force_vector_n)),
+                axes: (port.axes > 1).then_some((
+                    tick.position_m,
+                    tick.force_vector_n,
+                    tick.normal_n,
+                )),
             };
             if let Some(drive) = self.responder.drive(self.t, &self.sample) {
                 port.drive_hand(tick.now_s, &drive);

@@ -20,11 +20,12 @@ use crate::results::{ResultsDir, ResultsError, data_csv, replace_file};
 /// rendered force on the hand, vibrotactile drive (SI units), and the
 /// index of the render in effect in the trial record's `rendering` list,
 /// and the row's [`RowMarks`]. On a device with more than one axis, where
-/// `x_m` is the place along the track the model was rendered on, six more
+/// `x_m` is the place along the track the model was rendered on, seven more
 /// columns `device_x_m,device_y_m,device_z_m,device_fx_n,device_fy_n,device_fz_n`
 /// give the hand's position and the force sent on each of the device's
 /// axes, in its own frame (the friction and the wall that holds the hand on
-/// the track).
+/// the track), and `normal_force_n` the normal force the model rendered
+/// with where it is the hand's press (empty otherwise).
 /// Readable by `frictionlab identify`; `frictionlab rerender` renders it
 /// again.
 #[derive(Debug, Clone, Default)]
@@ -48,8 +49,9 @@ pub struct RowMarks {
     /// board).
     pub device_tick: Option<u32>,
     /// On a device with more than one axis: the hand's position, m, and
-    /// the force sent, N, on each axis of the device's frame.
-    pub axes: Option<([f64; 3], [f64; 3])>,
+    /// the force sent, N, on each axis of the device's frame, and the
+    /// normal force the model rendered with where it is the press, N.
+    pub axes: Option<([f64; 3], [f64; 3], Option<f64>)>,
 }
 
 impl StreamRecorder {
@@ -88,7 +90,7 @@ impl StreamRecorder {
         let axes = rows.iter().any(|(_, _, m)| m.axes.is_some());
         text.push_str("t_s,x_m,v_m_s,force_n,vibration,render,selected,watchdog,tick");
         text.push_str(if axes {
-            ",device_x_m,device_y_m,device_z_m,device_fx_n,device_fy_n,device_fz_n\n"
+            ",device_x_m,device_y_m,device_z_m,device_fx_n,device_fy_n,device_fz_n,normal_force_n\n"
         } else {
             "\n"
         });
@@ -108,9 +110,13 @@ impl StreamRecorder {
                 let _ = write!(text, "{tick}");
             }
             if axes {
-                let (p, f) = marks.axes.unwrap_or_default();
+                let (p, f, normal) = marks.axes.unwrap_or_default();
                 for v in p.iter().chain(&f) {
                     let _ = write!(text, ",{}", Num(*v));
+                }
+                text.push(',');
+                if let Some(n) = normal {
+                    let _ = write!(text, "{}", Num(n));
                 }
             }
             text.push('\n');

@@ -144,6 +144,7 @@ impl<L: Fields> Fields for GodObjectParams<L> {
                 coupling_stiffness_n_m: own[1],
                 coupling_damping_n_s_m: own[2],
                 normal_force_n: own[3],
+                press_stiffness_n_m: None,
                 static_friction,
                 restick_speed_m_s: own[4],
                 vibration_amplitude_m_s: own[5],
@@ -255,6 +256,25 @@ impl<T: Real> Renderer<T> {
         self.current = next.and_then(Result::ok);
         self.ramp = T::ZERO;
         ok
+    }
+
+    /// The hand presses `y_m` into the surface: each model whose normal
+    /// force is the press takes `k y` (seed 000's `F_N = k y`). Returns the
+    /// normal force of the model selected, or else of the one fading out.
+    pub fn press(&mut self, y_m: T) -> Option<T> {
+        let old = self.previous.as_mut().and_then(|m| m.press(y_m));
+        self.current.as_mut().and_then(|m| m.press(y_m)).or(old)
+    }
+
+    /// Sets the pressed normal force of the models whose normal force is
+    /// the press (a replay of a logged one), N.
+    pub fn set_pressed_normal(&mut self, normal_n: T) {
+        for m in [self.previous.as_mut(), self.current.as_mut()]
+            .into_iter()
+            .flatten()
+        {
+            m.set_pressed_normal(normal_n);
+        }
     }
 
     /// Advances by `dt` to `input`: the crossfaded, clamped force and the

@@ -9,12 +9,13 @@
 //! session's drive, sent in the messages' `frictionlab_hand` key, which
 //! the real service ignores as it does every key it does not know);
 //! across the track and vertically, a point mass held by the hand's own
-//! impedance. The hand rests 3 mm beside the track and 3 mm below its
-//! surface (it presses on it). The service's gravity compensation is
+//! impedance. The hand rests 3 mm beside the track and 1 to 5 mm below its
+//! surface (it presses on it, harder and softer at 0.5 Hz). The service's gravity compensation is
 //! taken as perfect (no weight), and its filters as letting the force
 //! through: both are reported as set in the inventory. Free constants
 //! (not from a source): [`CURSOR_MASS_KG`], [`CURSOR_FRICTION_N`],
-//! [`HAND_STIFFNESS_N_M`], [`HAND_DAMPING_N_S_M`], [`HAND_REST_M`].
+//! [`HAND_STIFFNESS_N_M`], [`HAND_DAMPING_N_S_M`], [`HAND_REST_ACROSS_M`],
+//! [`HAND_PRESS_M`].
 
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -33,8 +34,13 @@ pub const CURSOR_FRICTION_N: f64 = 0.02;
 pub const HAND_STIFFNESS_N_M: f64 = 200.0;
 /// The hand's damping across and vertically, N s/m (free).
 pub const HAND_DAMPING_N_S_M: f64 = 5.0;
-/// Where the hand rests: beside the track and below its surface, m (free).
-pub const HAND_REST_M: [f64; 2] = [0.003, -0.003];
+/// Where the hand rests beside the track, m (free).
+pub const HAND_REST_ACROSS_M: f64 = 0.003;
+/// How deep below the track's surface the hand rests on average, m, how far
+/// that swings either way, and how often, Hz (free: a person's press on a
+/// surface varies as they slide; the swing makes the press, and a normal
+/// force taken from it, vary within a trial).
+pub const HAND_PRESS_M: (f64, f64, f64) = (0.003, 0.002, 0.5);
 /// The hand's mass, kg (as the simulated participant's elsewhere).
 pub const HAND_MASS_KG: f64 = 0.4;
 /// How far along the track the arm moves before its stops, m.
@@ -108,10 +114,15 @@ impl Plant {
         let axes = self.axes();
         let along: f64 = (0..3).map(|i| f[i] * axes[0][i]).sum();
         self.rig.step(dt, |_| along);
+        let (depth, swing, hz) = HAND_PRESS_M;
+        let rest = [
+            HAND_REST_ACROSS_M,
+            -(depth + swing * (2.0 * std::f64::consts::PI * hz * self.t_s).sin()),
+        ];
         for k in 0..2 {
             let push: f64 = (0..3).map(|i| f[i] * axes[k + 1][i]).sum();
             let (y, v) = self.across[k];
-            let a = (push - HAND_STIFFNESS_N_M * (y - HAND_REST_M[k]) - HAND_DAMPING_N_S_M * v)
+            let a = (push - HAND_STIFFNESS_N_M * (y - rest[k]) - HAND_DAMPING_N_S_M * v)
                 / (CURSOR_MASS_KG + HAND_MASS_KG);
             let v = v + a * dt;
             self.across[k] = (y + v * dt, v);

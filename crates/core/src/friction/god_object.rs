@@ -193,6 +193,13 @@ pub struct GodObjectParams<L> {
     /// Normal force F_N of the finger on the floor, N. Default 3 (a 1-DOF
     /// device has no penetration depth, so it is a parameter).
     pub normal_force_n: f64,
+    /// Floor stiffness k of seed 000's `F_N = k y`, N/m: where it is set
+    /// and the device has a vertical axis (an Inverse3), the normal force
+    /// is `k` times the hand's press `y` into the track's surface, tick by
+    /// tick, instead of `normal_force_n` (which a device without a vertical
+    /// axis still uses). Default: not set.
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
+    pub press_stiffness_n_m: Option<f64>,
     /// Static and dynamic coefficients.
     pub static_friction: L,
     /// Slip -> stick speed band, m/s: the proxy may re-stick below this
@@ -221,6 +228,7 @@ impl<L: Default> Default for GodObjectParams<L> {
             coupling_stiffness_n_m: 1000.0,
             coupling_damping_n_s_m: 2.0,
             normal_force_n: 3.0,
+            press_stiffness_n_m: None,
             static_friction: L::default(),
             restick_speed_m_s: 0.001,
             vibration_amplitude_m_s: 0.05,
@@ -238,6 +246,9 @@ impl<L: StaticFrictionLaw> GodObjectParams<L> {
         c.positive("coupling_stiffness_n_m", self.coupling_stiffness_n_m);
         c.non_negative("coupling_damping_n_s_m", self.coupling_damping_n_s_m);
         c.non_negative("normal_force_n", self.normal_force_n);
+        if let Some(k) = self.press_stiffness_n_m {
+            c.positive("press_stiffness_n_m", k);
+        }
         c.non_negative("restick_speed_m_s", self.restick_speed_m_s);
         c.non_negative("vibration_amplitude_m_s", self.vibration_amplitude_m_s);
         c.positive("vibration_decay_per_s", self.vibration_decay_per_s);
@@ -263,6 +274,8 @@ pub struct GodObject<L, T: Real = f64> {
     b: T,
     inv_m: T,
     normal: T,
+    /// Floor stiffness of `F_N = k y`, if the normal force is the press.
+    press: Option<T>,
     restick_speed: T,
     vibration_amplitude: T,
     vibration_decay: T,
@@ -291,6 +304,22 @@ pub struct GodObject<L, T: Real = f64> {
 }
 
 impl<L: StaticFrictionLaw, T: Real> GodObject<L, T> {
+    /// Where the normal force is the press: sets it to `k` times the press
+    /// `y` (m, none below 0) and returns it.
+    pub fn press(&mut self, y_m: T) -> Option<T> {
+        let k = self.press?;
+        self.normal = k * y_m.max(T::ZERO);
+        Some(self.normal)
+    }
+
+    /// Where the normal force is the press: sets it, N (a replay of a
+    /// logged one).
+    pub fn set_pressed_normal(&mut self, normal_n: T) {
+        if self.press.is_some() {
+            self.normal = normal_n;
+        }
+    }
+
     /// A stuck proxy at the finger's position `x_m` (relaxed coupling).
     #[must_use]
     pub fn new(p: GodObjectParams<L>, limit: ForceLimit<T>, x_m: T) -> Self {
@@ -300,6 +329,7 @@ impl<L: StaticFrictionLaw, T: Real> GodObject<L, T> {
             b: T::of(p.coupling_damping_n_s_m),
             inv_m: T::of(1.0 / p.proxy_mass_kg),
             normal: T::of(p.normal_force_n),
+            press: p.press_stiffness_n_m.map(T::of),
             restick_speed: T::of(p.restick_speed_m_s),
             vibration_amplitude: T::of(p.vibration_amplitude_m_s),
             vibration_decay: T::of(p.vibration_decay_per_s),

@@ -471,6 +471,27 @@ impl<T: Real> Friction<T> {
         })
     }
 
+    /// The hand presses `y_m` into the surface: a model whose normal force
+    /// is the press (the god object with `press_stiffness_n_m`) takes it,
+    /// and returns its normal force.
+    pub fn press(&mut self, y_m: T) -> Option<T> {
+        match self {
+            Self::GodObjectConstant(m) => m.press(y_m),
+            Self::GodObjectTimeVarying(m) => m.press(y_m),
+            _ => None,
+        }
+    }
+
+    /// Sets the pressed normal force of a model whose normal force is the
+    /// press, N.
+    pub fn set_pressed_normal(&mut self, normal_n: T) {
+        match self {
+            Self::GodObjectConstant(m) => m.set_pressed_normal(normal_n),
+            Self::GodObjectTimeVarying(m) => m.set_pressed_normal(normal_n),
+            _ => {}
+        }
+    }
+
     /// Advances the model by `dt` seconds to the hand state `input`.
     ///
     /// A non-finite or non-positive `dt`, or a non-finite input, leaves the
