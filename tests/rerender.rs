@@ -204,6 +204,7 @@ mod on_board {
             selected: flags & status::SELECTED != 0,
             watchdog: flags & status::WATCHDOG != 0,
             tick: Some(tick),
+            normal_n: None,
         }
     }
 
