@@ -99,6 +99,13 @@ pub struct LoopStats {
     /// Device ticks that missed their deadline (its `LoopReport`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub device_missed_ticks: Option<u32>,
+    /// Median time between consecutive ticks, microseconds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub period_p50_us: Option<f64>,
+    /// 99th percentile of the time between consecutive ticks,
+    /// microseconds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub period_p99_us: Option<f64>,
     /// Ticks whose model computed a force that was not a finite number
     /// (zero was sent).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -290,6 +297,8 @@ fn run(
     let alpha = step.velocity_alpha(dt);
     let track = device.track();
     let mut histogram = vec![0_u32; BINS + 1];
+    let mut periods = vec![0_u32; BINS + 1];
+    let mut last_woke: Option<Instant> = None;
     let (mut ticks, mut missed, mut max_late) = (0_u64, 0_u64, 0.0_f64);
     let (mut non_finite, mut last_s) = (0_u64, 0.0_f64);
     let mut renderer = Renderer::<f64>::new(step.force_limit, RAMP_S);
@@ -316,6 +325,15 @@ fn run(
         )]
         let bin = (late as usize).min(BINS);
         histogram[bin] += 1;
+        if let Some(last) = last_woke.replace(woke) {
+            #[expect(
+                clippy::cast_possible_truncation,
+                clippy::cast_sign_loss,
+                reason = "non-negative, clamped to the histogram"
+            )]
+            let us = (woke.duration_since(last).as_secs_f64() * 1e6) as usize;
+            periods[us.min(BINS)] += 1;
+        }
         if late > 0.5e6 * dt {
             missed += 1;
         }
@@ -411,7 +429,8 @@ fn run(
         );
     }
     device.close();
-    let percentile = |q: f64| {
+    let quantile = |histogram: &[u32], q: f64| {
+        let ticks: u64 = histogram.iter().map(|&c| u64::from(c)).sum();
         #[expect(
             clippy::cast_possible_truncation,
             clippy::cast_sign_loss,
@@ -431,8 +450,8 @@ fn run(
     LoopStats {
         rate_hz,
         ticks,
-        period_error_p50_us: percentile(0.5),
-        period_error_p99_us: percentile(0.99),
+        period_error_p50_us: quantile(&histogram, 0.5),
+        period_error_p99_us: quantile(&histogram, 0.99),
         period_error_max_us: max_late,
         missed_deadlines: missed,
         crc_errors: stats.crc_errors,
@@ -442,6 +461,8 @@ fn run(
         telemetry_gaps: stats.telemetry_gaps,
         device_longest_loop_us: stats.device_longest_loop_us,
         device_missed_ticks: stats.device_missed_ticks,
+        period_p50_us: (ticks > 1).then(|| quantile(&periods, 0.5)),
+        period_p99_us: (ticks > 1).then(|| quantile(&periods, 0.99)),
         non_finite_forces: (non_finite > 0).then_some(non_finite),
     }
 }

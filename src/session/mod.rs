@@ -499,7 +499,11 @@ impl<R: Responder> Session<R> {
                     continue;
                 }
                 let since = *self.on_track_since.get_or_insert(self.t);
-                if (self.t - since).secs() < ON_TRACK_HOLD_S {
+                let axes = match &self.device {
+                    Device::Port(port) => port.axes,
+                    _ => 1,
+                };
+                if axes > 1 && (self.t - since).secs() < ON_TRACK_HOLD_S {
                     continue;
                 }
                 self.off_track_m = None;

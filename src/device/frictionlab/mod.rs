@@ -434,6 +434,11 @@ impl OnBoardState {
         } else {
             self.device_render = UNKNOWN_RENDER;
         }
+        if self.rendering && self.device_render != self.wanted.0 && self.sent_s.is_none() {
+            // The device no longer renders what it had in effect (it
+            // restarted, a late Hello over a lagging link): send it again.
+            self.sent_s = Some(now_s);
+        }
         if let Some(last) = self.last_tick {
             self.gaps += u64::from(t.tick.wrapping_sub(last).saturating_sub(1));
         }
@@ -508,6 +513,12 @@ mod tests {
         assert!(board.sent_s.is_some(), "19 not in effect yet");
         board.observe(&telemetry(2, 19), 0.6, 0.0002);
         assert_eq!((board.device_render, board.sent_s), (19, None));
+        // A device that restarts (its telemetry shows none of ours) gets
+        // the render in effect sent again.
+        board.rendering = true;
+        board.observe(&telemetry(3, 0), 0.65, 0.0002);
+        assert_eq!(board.device_render, UNKNOWN_RENDER);
+        assert_eq!(board.sent_s, Some(0.65), "19 is due again");
         // A new render starts the backoff afresh.
         board.wanted = (20, None);
         board.send(0.7, None, |_| {});
