@@ -391,3 +391,50 @@ fn a_missing_or_garbage_speaking_2diy_is_bad_input_and_writes_nothing() {
     );
     assert!(!out.join("logs").exists(), "nothing written");
 }
+
+/// The 2DIY's emulator killed mid-trial and started again: the trial under
+/// way is aborted and presented again, and the session completes every
+/// trial exactly once.
+#[test]
+fn a_2diy_lost_mid_trial_costs_that_trial_and_the_session_rides_it_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let dev = dir.path().join("dev");
+    let emu = emulator(&dev, &[]);
+    let out = dir.path().join("results");
+    let session = run("magnitude-quick", &out, &dev, &["--device-timeout", "20"]);
+    let log = out.join("logs/study-magnitudequick_subject-h2_session-1_log.jsonl");
+    let start = Instant::now();
+    while read_log::<Registry>(&log).map_or(0, |l| l.trials.len()) < 1
+        && start.elapsed() < Duration::from_mins(1)
+    {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::thread::sleep(Duration::from_millis(700)); // into the next trial
+    stop(emu);
+    std::thread::sleep(Duration::from_millis(600));
+    let emu = emulator(&dev, &[]);
+    let o = session.wait_with_output().unwrap();
+    stop(emu);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let read = read_log::<Registry>(&log).unwrap();
+    let aborted: Vec<_> = read
+        .trials
+        .iter()
+        .filter(|r| r.status.as_str() != "completed")
+        .collect();
+    println!(
+        "{} records: {} aborted ({:?}), every planned trial completed once",
+        read.trials.len(),
+        aborted.len(),
+        aborted
+            .iter()
+            .map(|r| r.abort_reason.clone())
+            .collect::<Vec<_>>()
+    );
+    assert!(read.ended);
+    assert!(!aborted.is_empty(), "the trial under way was aborted");
+    assert_eq!(
+        common::completed_trials(&read),
+        (0..read.header.planned_trials).collect::<Vec<_>>()
+    );
+}

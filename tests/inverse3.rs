@@ -279,3 +279,60 @@ fn the_normal_force_follows_the_press_on_the_emulated_inverse3() {
     );
     assert_eq!(report["bit_exact"], true, "{report}");
 }
+
+/// The emulated service stopped mid-trial and started again on its port:
+/// the trial under way is aborted and presented again, the driver
+/// reconnects, and the session completes every trial exactly once.
+#[test]
+fn a_service_lost_mid_trial_costs_that_trial_and_the_session_rides_it_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let (emu, address) = service(&[]);
+    let out = dir.path().join("results");
+    let session = run(
+        "magnitude-quick",
+        &out,
+        &format!("inverse3:{address}"),
+        &["--device-timeout", "20"],
+    );
+    let log = out.join("logs/study-magnitudequick_subject-i3_session-1_log.jsonl");
+    let start = Instant::now();
+    while read_log::<Registry>(&log).map_or(0, |l| l.trials.len()) < 1
+        && start.elapsed() < Duration::from_mins(1)
+    {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::thread::sleep(Duration::from_millis(700)); // into the next trial
+    stop(emu);
+    std::thread::sleep(Duration::from_millis(600));
+    let again = Command::new(BIN)
+        .arg("device-emulator")
+        .arg(format!("inverse3:{address}"))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let o = session.wait_with_output().unwrap();
+    stop(again);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let read = read_log::<Registry>(&log).unwrap();
+    let aborted: Vec<_> = read
+        .trials
+        .iter()
+        .filter(|r| r.status.as_str() != "completed")
+        .collect();
+    println!(
+        "{} records: {} aborted ({:?}), every planned trial completed once",
+        read.trials.len(),
+        aborted.len(),
+        aborted
+            .iter()
+            .map(|r| r.abort_reason.clone())
+            .collect::<Vec<_>>()
+    );
+    assert!(read.ended);
+    assert!(!aborted.is_empty(), "the trial under way was aborted");
+    assert_eq!(
+        common::completed_trials(&read),
+        (0..read.header.planned_trials).collect::<Vec<_>>()
+    );
+}
