@@ -15,8 +15,6 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use frictionlab::kinds::Registry;
-use frictionlab::results::read_log;
 
 const BIN: &str = env!("CARGO_BIN_EXE_frictionlab");
 
@@ -107,36 +105,11 @@ fn quick_sessions_run_on_the_emulated_inverse3_resume_after_kill_9_and_keep_the_
     ] {
         let out = dir.path().join(protocol);
         let log = out.join(format!("logs/study-{stem}_subject-i3_session-1_log.jsonl"));
-        let mut first = run(protocol, &out, &device, &[]);
-        let start = Instant::now();
-        while read_log::<Registry>(&log).map_or(0, |l| l.trials.len()) < 2
-            && start.elapsed() < Duration::from_mins(1)
-        {
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        first.kill().unwrap(); // SIGKILL
-        first.wait().unwrap();
-        let before = read_log::<Registry>(&log).unwrap();
-        assert!(
-            !before.ended && before.trials.len() >= 2,
-            "{protocol}: killed after 2 trials"
-        );
-        let o = run(protocol, &out, &device, &["--resume"])
-            .wait_with_output()
-            .unwrap();
-        assert!(
-            o.status.success(),
-            "{protocol}: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
-        let read = read_log::<Registry>(&log).unwrap();
+        let (before, read) =
+            common::kill_9_and_resume(protocol, &log, run(protocol, &out, &device, &[]), || {
+                run(protocol, &out, &device, &["--resume"])
+            });
         let planned = read.header.planned_trials;
-        assert!(read.ended, "{protocol}");
-        assert_eq!(
-            common::completed_trials(&read),
-            (0..planned).collect::<Vec<_>>(),
-            "{protocol}: every planned trial completed exactly once"
-        );
         let settings = read
             .header
             .device_settings
@@ -295,44 +268,14 @@ fn a_service_lost_mid_trial_costs_that_trial_and_the_session_rides_it_out() {
         &["--device-timeout", "20"],
     );
     let log = out.join("logs/study-magnitudequick_subject-i3_session-1_log.jsonl");
-    let start = Instant::now();
-    while read_log::<Registry>(&log).map_or(0, |l| l.trials.len()) < 1
-        && start.elapsed() < Duration::from_mins(1)
-    {
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    std::thread::sleep(Duration::from_millis(700)); // into the next trial
-    stop(emu);
-    std::thread::sleep(Duration::from_millis(600));
-    let again = Command::new(BIN)
-        .arg("device-emulator")
-        .arg(format!("inverse3:{address}"))
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let o = session.wait_with_output().unwrap();
-    stop(again);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let read = read_log::<Registry>(&log).unwrap();
-    let aborted: Vec<_> = read
-        .trials
-        .iter()
-        .filter(|r| r.status.as_str() != "completed")
-        .collect();
-    println!(
-        "{} records: {} aborted ({:?}), every planned trial completed once",
-        read.trials.len(),
-        aborted.len(),
-        aborted
-            .iter()
-            .map(|r| r.abort_reason.clone())
-            .collect::<Vec<_>>()
-    );
-    assert!(read.ended);
-    assert!(!aborted.is_empty(), "the trial under way was aborted");
-    assert_eq!(
-        common::completed_trials(&read),
-        (0..read.header.planned_trials).collect::<Vec<_>>()
-    );
+    let restart = || {
+        Command::new(BIN)
+            .arg("device-emulator")
+            .arg(format!("inverse3:{address}"))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap()
+    };
+    common::lost_mid_trial(&log, session, || stop(emu), restart);
 }

@@ -259,3 +259,95 @@ pub fn shipped_protocols() -> Vec<std::path::PathBuf> {
     protocols.sort();
     protocols
 }
+
+/// Waits (up to a minute) until the session log at `log` holds `n` trial
+/// records.
+pub fn wait_for_records(log: &std::path::Path, n: usize) {
+    use frictionlab::kinds::Registry;
+    let start = std::time::Instant::now();
+    while frictionlab::results::read_log::<Registry>(log).map_or(0, |l| l.trials.len()) < n
+        && start.elapsed() < std::time::Duration::from_mins(1)
+    {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+}
+
+/// Kills `first` (SIGKILL) once its log at `log` holds two records, runs
+/// `resume` to the end, and checks that the session ended with every
+/// planned trial completed exactly once; returns the log as it was before
+/// the resume and after.
+pub fn kill_9_and_resume(
+    protocol: &str,
+    log: &std::path::Path,
+    mut first: std::process::Child,
+    resume: impl FnOnce() -> std::process::Child,
+) -> (frictionlab::kinds::ReadLog, frictionlab::kinds::ReadLog) {
+    use frictionlab::kinds::Registry;
+    use frictionlab::results::read_log;
+    wait_for_records(log, 2);
+    first.kill().unwrap(); // SIGKILL
+    first.wait().unwrap();
+    let before = read_log::<Registry>(log).unwrap();
+    assert!(
+        !before.ended && before.trials.len() >= 2,
+        "{protocol}: killed after 2 trials"
+    );
+    let o = resume().wait_with_output().unwrap();
+    assert!(
+        o.status.success(),
+        "{protocol}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let read = read_log::<Registry>(log).unwrap();
+    assert!(read.ended, "{protocol}");
+    assert_eq!(
+        completed_trials(&read),
+        (0..read.header.planned_trials).collect::<Vec<_>>(),
+        "{protocol}: every planned trial completed exactly once"
+    );
+    (before, read)
+}
+
+/// A session on a device that is lost mid-trial: once `session`'s log at
+/// `log` holds one record and 0.7 s more have passed (the next trial under
+/// way), `stop` stops the device; 0.6 s later `restart` starts it again.
+/// Checks that the session ended, the trial under way was aborted, and
+/// every planned trial completed exactly once.
+pub fn lost_mid_trial(
+    log: &std::path::Path,
+    session: std::process::Child,
+    stop: impl FnOnce(),
+    restart: impl FnOnce() -> std::process::Child,
+) {
+    use frictionlab::kinds::Registry;
+    wait_for_records(log, 1);
+    std::thread::sleep(std::time::Duration::from_millis(700)); // into the next trial
+    stop();
+    std::thread::sleep(std::time::Duration::from_millis(600));
+    let mut device = restart();
+    let o = session.wait_with_output().unwrap();
+    let _ = device.kill();
+    let _ = device.wait();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let read = frictionlab::results::read_log::<Registry>(log).unwrap();
+    let aborted: Vec<_> = read
+        .trials
+        .iter()
+        .filter(|r| r.status.as_str() != "completed")
+        .collect();
+    println!(
+        "{} records: {} aborted ({:?}), every planned trial completed once",
+        read.trials.len(),
+        aborted.len(),
+        aborted
+            .iter()
+            .map(|r| r.abort_reason.clone())
+            .collect::<Vec<_>>()
+    );
+    assert!(read.ended);
+    assert!(!aborted.is_empty(), "the trial under way was aborted");
+    assert_eq!(
+        completed_trials(&read),
+        (0..read.header.planned_trials).collect::<Vec<_>>()
+    );
+}
