@@ -15,7 +15,6 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-
 const BIN: &str = env!("CARGO_BIN_EXE_frictionlab");
 
 /// A free loopback port.
