@@ -53,10 +53,16 @@ pub(super) struct Port {
 }
 
 impl Port {
-    pub(super) fn new(haptic: HapticLoop, axes: usize, rate_hz: f64, force_limit_n: f64) -> Self {
+    pub(super) fn new(
+        haptic: HapticLoop,
+        settings: Option<serde_json::Value>,
+        axes: usize,
+        rate_hz: f64,
+        force_limit_n: f64,
+    ) -> Self {
         Port {
             haptic,
-            settings: None,
+            settings,
             axes,
             rate_hz,
             force_limit_n,
@@ -198,10 +204,13 @@ impl Device {
                 };
                 let haptic =
                     HapticLoop::start(backend, step, true).map_err(super::SessionError::Loop)?;
-                let mut port =
-                    Port::new(haptic, caps.axes, step.rate_hz, step.force_limit.newtons());
-                port.settings = settings;
-                Device::Port(Box::new(port))
+                Device::Port(Box::new(Port::new(
+                    haptic,
+                    settings,
+                    caps.axes,
+                    step.rate_hz,
+                    step.force_limit.newtons(),
+                )))
             }
         })
     }
@@ -281,6 +290,14 @@ impl Device {
             true
         } else {
             false
+        }
+    }
+
+    /// The device's axes (1 for the simulated device).
+    pub(super) fn axes(&self) -> usize {
+        match self {
+            Device::Port(port) => port.axes,
+            _ => 1,
         }
     }
 

@@ -499,11 +499,7 @@ impl<R: Responder> Session<R> {
                     continue;
                 }
                 let since = *self.on_track_since.get_or_insert(self.t);
-                let axes = match &self.device {
-                    Device::Port(port) => port.axes,
-                    _ => 1,
-                };
-                if axes > 1 && (self.t - since).secs() < ON_TRACK_HOLD_S {
+                if self.device.axes() > 1 && (self.t - since).secs() < ON_TRACK_HOLD_S {
                     continue;
                 }
                 self.off_track_m = None;
@@ -523,6 +519,11 @@ impl<R: Responder> Session<R> {
                 // The session starts (its files are written) once the
                 // device answers.
                 self.log.open()?;
+                if self.device.axes() > 1
+                    && let Some(open) = self.log.opened()
+                {
+                    open.streams.multi_axis();
+                }
             }
             let Device::Port(port) = &mut self.device else {
                 break;

@@ -32,6 +32,9 @@ use crate::results::{ResultsDir, ResultsError, data_csv, replace_file};
 pub struct StreamRecorder {
     stem: Option<PathBuf>,
     rows: Vec<([f64; 5], usize, RowMarks)>,
+    /// The device has more than one axis: every stream has the axis
+    /// columns, a trial with no rows too.
+    axes: bool,
 }
 
 /// What a stream row marks besides its values (columns `selected` and
@@ -68,7 +71,14 @@ impl StreamRecorder {
                 .filter(|_| on)
                 .map(|s| dir.root().join("streams").join(s)),
             rows: Vec::new(),
+            axes: false,
         }
+    }
+
+    /// From now on every stream has the columns of a device with more than
+    /// one axis.
+    pub fn multi_axis(&mut self) {
+        self.axes = true;
     }
 
     /// Adds a sample of the trial under way, rendered by the trial's
@@ -87,7 +97,7 @@ impl StreamRecorder {
             return Ok(());
         };
         let mut text = String::with_capacity(rows.len() * 64 + 40);
-        let axes = rows.iter().any(|(_, _, m)| m.axes.is_some());
+        let axes = self.axes || rows.iter().any(|(_, _, m)| m.axes.is_some());
         text.push_str("t_s,x_m,v_m_s,force_n,vibration,render,selected,watchdog,tick");
         text.push_str(if axes {
             ",device_x_m,device_y_m,device_z_m,device_fx_n,device_fy_n,device_fz_n,normal_force_n\n"

@@ -31,7 +31,7 @@ use std::net::{SocketAddr, TcpStream, ToSocketAddrs};
 use std::time::Duration;
 
 use self::messages::ServiceFrame;
-use super::backend::{Backend, Capabilities, LinkState, LinkStats, Reading, Vector};
+use super::backend::{Backend, Capabilities, LinkState, Reading, Vector};
 use super::track::Track;
 use crate::hand::HandDrive;
 
@@ -425,10 +425,6 @@ impl Backend for Inverse3 {
 
     fn settings(&self) -> Option<serde_json::Value> {
         Some(self.settings.clone())
-    }
-
-    fn stats(&self) -> LinkStats {
-        LinkStats::default()
     }
 }
 

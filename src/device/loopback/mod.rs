@@ -1,8 +1,9 @@
 //! A device for tests only: the simulated apparatus of seed 002 with the
 //! simulated participant's hand on it, in this process, stepped to the
 //! loop's clock. It is here to show the seam: a backend in its own folder,
-//! registered in one line of [`super::KINDS`], runs a whole session, and
-//! nothing else names it.
+//! registered in one line of [`super::KINDS`], runs a whole session
+//! (`src/session/headless.rs`'s test, which asks for `--device
+//! loopback:test` by name), and no module names it.
 
 use super::backend::{Backend, Capabilities, LinkState, Reading, Vector};
 use super::sim::Apparatus;
@@ -77,52 +78,5 @@ impl Backend for Loopback {
 
     fn drive_hand(&mut self, drive: &HandDrive) {
         self.rig.drive(*drive);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use crate::kinds::Registry;
-    use crate::results::{ResultsDir, read_log};
-    use crate::session::{DeviceChoice, SessionRequest, run_device, sim_participant};
-
-    /// A session of magnitude-quick on the test-only device, with the
-    /// simulated participant: every trial completes, its stream written.
-    #[test]
-    fn a_backend_registered_in_one_line_runs_a_whole_session() {
-        let bytes = std::fs::read(
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("protocols/magnitude-quick.json"),
-        )
-        .unwrap();
-        let protocol =
-            crate::protocol::load::parse::<Registry>(std::str::from_utf8(&bytes).unwrap()).unwrap();
-        let tmp = tempfile::tempdir().unwrap();
-        let dir = ResultsDir::new(tmp.path());
-        let device = DeviceChoice::Device(crate::device::Address::parse("loopback:test").unwrap());
-        let req = SessionRequest {
-            protocol: &protocol,
-            protocol_bytes: &bytes,
-            participant: "loop",
-            participant_index: Some(0),
-            seed: 7,
-            resume: false,
-            pace: Some(1.0),
-            device: &device,
-            streams: true,
-            population: None,
-            lsl: None,
-        };
-        let outcome = run_device(&dir, &req, 5.0, sim_participant, None, &mut |_, _| {}).unwrap();
-        let log = tmp
-            .path()
-            .join("logs/study-magnitudequick_subject-loop_session-1_log.jsonl");
-        let read = read_log::<Registry>(&log).unwrap();
-        assert!(read.ended, "{outcome:?}");
-        assert_eq!(read.header.device, "loopback:test");
-        assert_eq!(read.trials.len(), read.header.planned_trials);
-        let streams = std::fs::read_dir(tmp.path().join("streams"))
-            .unwrap()
-            .count();
-        assert_eq!(streams, read.trials.len());
     }
 }
