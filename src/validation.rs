@@ -13,7 +13,8 @@
 //!
 //! # The sweep
 //! Each row is replayed again with every range of the population
-//! ([`Population`]) pinned at its low end, then at its high end (the other
+//! ([`Population`]) that spans more than one value pinned at its low end,
+//! then at its high end (the other
 //! constants at their defaults), and with the break-away weight at the ends
 //! of its domain (0 and 1). The table gives the smallest and the largest
 //! mean over these points and the constant whose two ends move the mean
@@ -131,6 +132,10 @@ pub fn sweep_points() -> Vec<(String, &'static str, f64, Population)> {
             }) else {
                 continue;
             };
+            if lo >= hi {
+                // A single value (a cited constant): nothing to sweep.
+                continue;
+            }
             pin(key, "low", serde_json::json!([lo, lo]), lo);
             pin(key, "high", serde_json::json!([hi, hi]), hi);
         }

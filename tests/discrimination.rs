@@ -61,13 +61,15 @@ fn population(sigma: f64) -> Population {
         hand_mass_kg: mid(d.hand_mass_kg),
         hand_stiffness_n_m: mid(d.hand_stiffness_n_m),
         hand_damping_n_s_m: mid(d.hand_damping_n_s_m),
-        motor_noise: mid(d.motor_noise),
-        submovement_s: mid(d.submovement_s),
+        motor_noise_s: mid(d.motor_noise_s),
         feedback_s: mid(d.feedback_s),
         position_sd_m: mid(d.position_sd_m),
         force_weber: [sigma; 2],
         vibration_weber: mid(d.vibration_weber),
+        displacement_weber: mid(d.displacement_weber),
+        velocity_weber: mid(d.velocity_weber),
         stevens_exponent: mid(d.stevens_exponent),
+        viscosity_exponent: mid(d.viscosity_exponent),
         answer_noise: mid(d.answer_noise),
         ..d
     }
@@ -125,7 +127,13 @@ fn true_threshold(p: &Protocol, bytes: &[u8], pop: &Population, sigma: f64) -> f
         let strength = |rows: &[frictionlab::rerender::Row]| {
             let mut felt = BreakAway::default();
             for row in rows {
-                felt.add(row.t_s - rows[0].t_s, row.x_m, row.force_n, row.vibration);
+                felt.add(
+                    row.t_s - rows[0].t_s,
+                    row.x_m,
+                    row.v_m_s,
+                    row.force_n,
+                    row.vibration,
+                );
             }
             felt.strength(traits.breakaway_weight, traits.tactile_gain_n)
         };

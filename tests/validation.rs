@@ -179,14 +179,26 @@ fn a_sweep_point_pins_one_constant_and_leaves_every_other_trait_as_drawn() {
                 "hand_damping_n_s_m",
                 t.hand_damping_n_s_m != base.hand_damping_n_s_m,
             ),
-            ("motor_noise", t.motor_noise != base.motor_noise),
-            ("submovement_s", t.submovement_s != base.submovement_s),
+            ("motor_noise_s", t.motor_noise_s != base.motor_noise_s),
             ("feedback_s", t.feedback_s != base.feedback_s),
             ("position_sd_m", t.position_sd_m != base.position_sd_m),
             ("force_weber", t.acuity.force != base.acuity.force),
             (
                 "vibration_weber",
                 t.acuity.vibration != base.acuity.vibration,
+            ),
+            (
+                "displacement_weber",
+                t.acuity.displacement != base.acuity.displacement,
+            ),
+            ("velocity_weber", t.acuity.velocity != base.acuity.velocity),
+            (
+                "viscosity_exponent",
+                t.viscosity_exponent != base.viscosity_exponent,
+            ),
+            (
+                "stiffness_exponent",
+                t.stiffness_exponent != base.stiffness_exponent,
             ),
             (
                 "breakaway_weight",

@@ -32,7 +32,7 @@ use serde_json::Value;
 use crate::analysis::{AnalysedKinds, AnalysisEntry, KindAnalysis};
 use crate::protocol::check::Checks;
 use crate::protocol::engine::{self, Input, TrialSource};
-use crate::protocol::kind::{Block, Holds, KindInfo, Kinds, LiveTrial, Next, StudyKind};
+use crate::protocol::kind::{Block, Holds, KindInfo, Kinds, LiveTrial, Next, Quality, StudyKind};
 use crate::protocol::load::Walk;
 use crate::protocol::{self, plan};
 use crate::time::Time;
@@ -267,6 +267,12 @@ macro_rules! kinds {
             fn preferable_stimuli(trial: &TrialSpec) -> Vec<&str> {
                 match trial {
                     $($(#[cfg($cfg)])? TrialSpec::$variant(t) => <$module::$kind as StudyKind>::preferable_stimuli(t),)*
+                }
+            }
+
+            fn judged(trial: &TrialSpec) -> Quality {
+                match trial {
+                    $($(#[cfg($cfg)])? TrialSpec::$variant(t) => <$module::$kind as StudyKind>::judged(t),)*
                 }
             }
 

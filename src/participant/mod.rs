@@ -3,12 +3,17 @@
 //! hand felt, never from the protocol's labels.
 //!
 //! # Mechanisms (each with its sources, in its module)
-//! - [`movement`]: Fitts movements as stochastic optimized submovements with
-//!   signal-dependent noise (Meyer et al. 1988; Harris & Wolpert 1998).
+//! - [`movement`]: Fitts movements as minimum-jerk submovements of the
+//!   hand's equilibrium point, with signal-dependent noise and durations
+//!   chosen by the stochastic optimized-submovement model (Flash & Hogan
+//!   1985; Meyer et al. 1988; Harris & Wolpert 1998), and a button press
+//!   and release from the Keystroke-Level Model.
 //! - [`percept`]: friction strength from the force at break-away and while
-//!   sliding (magnitude estimation); nearness of a rendering to a desk the
-//!   participant slid on, in JNDs of its own Weber fractions (paired
-//!   comparison).
+//!   sliding; viscosity and stiffness from force over velocity and over
+//!   displacement, each cue with its own noise (magnitude estimation and
+//!   forced choice, of the quality the protocol asks about); nearness of a
+//!   rendering to a desk the participant slid on, in JNDs of its own Weber
+//!   fractions (paired comparison).
 //! - Magnitude exploration: the hand strokes sinusoidally (its own amplitude
 //!   and rate) for its own exploration time (at most the protocol's).
 //!
@@ -42,13 +47,14 @@ use rand_distr::{Distribution, Normal};
 use crate::device::DeviceSample;
 use crate::hand::{Hand, HandDrive};
 use crate::protocol::engine::{Action, Answer, Choice, Input, Question, Screen};
-use crate::protocol::kind::Kinds;
+use crate::protocol::kind::{Kinds, Quality};
 use crate::protocol::plan::PlannedTrial;
 use crate::time::Time;
-pub use movement::MAX_CORRECTIONS;
+pub use movement::{MAX_CORRECTIONS, Planner};
 use movement::{Step, Tap};
 use percept::{Acuity, Desk, Features, Felt, SLIDE_REST_S, SLIDE_S};
 pub use population::{Population, Range};
+use std::sync::Arc;
 
 /// What a responder does in response to an action or a sample.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -63,8 +69,12 @@ pub struct Reaction {
 /// A participant's traits, drawn from its [`Population`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Traits {
-    /// Stevens exponent.
+    /// Stevens exponent of friction.
     pub exponent: f64,
+    /// Stevens exponent of viscosity.
+    pub viscosity_exponent: f64,
+    /// Stevens exponent of stiffness.
+    pub stiffness_exponent: f64,
     /// Stevens modulus (the participant's own scale): 10 e^U(-1, 1) (free).
     pub modulus: f64,
     /// Log-normal answer noise (SD of ln).
@@ -85,10 +95,10 @@ pub struct Traits {
     /// Hand integral gain (effort builds while off the plan), N/(m s):
     /// 3000, free (see [`crate::hand`]).
     pub hand_integral: f64,
-    /// Motor noise: endpoint SD over amplitude.
-    pub motor_noise: f64,
-    /// Submovement duration, s.
-    pub submovement_s: f64,
+    /// Motor noise `K` of the aim's SD `K D / T`, s.
+    pub motor_noise_s: f64,
+    /// Time to press, and to release, the button, s.
+    pub button_s: f64,
     /// Visual feedback delay, s.
     pub feedback_s: f64,
     /// Position perception noise, m (SD).
@@ -122,25 +132,51 @@ impl Traits {
                 lo
             }
         };
+        // In the order the traits were drawn before issue 44, so the
+        // traits it kept stay as they were drawn; the new ones come last.
+        let exponent = u(p.stevens_exponent);
+        let modulus = 10.0 * u([-1.0, 1.0]).exp();
+        let answer_noise = u(p.answer_noise);
+        let stroke_m = u([0.008, 0.012]);
+        let stroke_hz = u([1.0, 2.0]);
+        let explore_s = u([2.5, 5.0]);
+        let hand_mass_kg = u(p.hand_mass_kg);
+        let hand_stiffness_n_m = u(p.hand_stiffness_n_m);
+        let hand_damping_n_s_m = u(p.hand_damping_n_s_m);
+        let motor_noise_s = u(p.motor_noise_s);
+        // The retired submovement duration's draw.
+        let _ = u([0.0, 1.0]);
+        let feedback_s = u(p.feedback_s);
+        let position_sd_m = u(p.position_sd_m);
+        let force = u(p.force_weber);
+        let vibration = u(p.vibration_weber);
+        let displacement = u(p.displacement_weber);
+        let velocity = u(p.velocity_weber);
+        let viscosity_exponent = u(p.viscosity_exponent);
+        let stiffness_exponent = u(p.stiffness_exponent);
         Traits {
-            exponent: u(p.stevens_exponent),
-            modulus: 10.0 * u([-1.0, 1.0]).exp(),
-            answer_noise: u(p.answer_noise),
-            stroke_m: u([0.008, 0.012]),
-            stroke_hz: u([1.0, 2.0]),
-            explore_s: u([2.5, 5.0]),
-            hand_mass_kg: u(p.hand_mass_kg),
-            hand_stiffness_n_m: u(p.hand_stiffness_n_m),
-            hand_damping_n_s_m: u(p.hand_damping_n_s_m),
+            exponent,
+            viscosity_exponent,
+            stiffness_exponent,
+            modulus,
+            answer_noise,
+            stroke_m,
+            stroke_hz,
+            explore_s,
+            hand_mass_kg,
+            hand_stiffness_n_m,
+            hand_damping_n_s_m,
             hand_integral: 3000.0,
-            motor_noise: u(p.motor_noise),
-            submovement_s: u(p.submovement_s),
-            feedback_s: u(p.feedback_s),
-            position_sd_m: u(p.position_sd_m),
+            motor_noise_s,
+            button_s: p.button_s,
+            feedback_s,
+            position_sd_m,
             acuity: Acuity {
-                force: u(p.force_weber),
-                vibration: u(p.vibration_weber),
+                force,
+                vibration,
                 floor_n: p.vibration_floor_n,
+                displacement,
+                velocity,
             },
             breakaway_weight: p.breakaway_weight,
             tactile_gain_n: p.tactile_gain_n,
@@ -149,6 +185,16 @@ impl Traits {
                 mu: p.desk_mu,
                 normal_n: p.desk_normal_n,
             },
+        }
+    }
+
+    /// The Stevens exponent of magnitude estimates of `quality`.
+    #[must_use]
+    pub fn exponent_of(&self, quality: Quality) -> f64 {
+        match quality {
+            Quality::Friction => self.exponent,
+            Quality::Viscosity => self.viscosity_exponent,
+            Quality::Stiffness => self.stiffness_exponent,
         }
     }
 }
@@ -185,6 +231,9 @@ pub struct SimParticipant {
     /// A set paired-comparison preference (an assumed effect, see
     /// [`Population::paired_preference`]), not a percept.
     preference: Option<population::PairedPreference>,
+    /// Its movement planner, made at its first Fitts test (a function of
+    /// its traits only).
+    planner: Option<Arc<Planner>>,
 }
 
 #[derive(Debug, Clone)]
@@ -202,6 +251,8 @@ enum Behaviour {
 struct Explore {
     start: Time,
     stop: Time,
+    /// The quality asked about.
+    judged: Quality,
     felt: Felt,
     answered: bool,
     /// The stroke's phase as the simulated device steps it.
@@ -272,8 +323,10 @@ struct Slide {
     distances: [f64; 2],
     /// Forced choice: each stimulus's perceived friction strength, N.
     strengths: [f64; 2],
-    /// A forced choice (which felt like more friction), not nearness.
+    /// A forced choice (which had more of `judged`), not nearness.
     forced: bool,
+    /// The quality a forced choice asks about.
+    judged: Quality,
     /// With a set preference: which stimulus (0 first, 1 second presented)
     /// is the preferred condition, if either is.
     preferred: Option<usize>,
@@ -311,6 +364,7 @@ impl SimParticipant {
             rng: ChaCha8Rng::seed_from_u64(seed),
             desk: None,
             preference: population.paired_preference.clone(),
+            planner: None,
         }
     }
 
@@ -372,6 +426,7 @@ impl SimParticipant {
                 self.behaviour = Behaviour::Explore(Explore {
                     start: now,
                     stop: now + explore.min(*until - now),
+                    judged: trial.map_or(Quality::Friction, |t| K::judged(&t.spec)),
                     felt: Felt::default(),
                     answered: false,
                     phase: Phasor::new(),
@@ -394,6 +449,7 @@ impl SimParticipant {
                     distances: [0.0; 2],
                     strengths: [0.0; 2],
                     forced: forced.is_some(),
+                    judged: trial.map_or(Quality::Friction, |t| K::judged(&t.spec)),
                     preferred,
                     answered: false,
                 }));
@@ -463,7 +519,19 @@ impl SimParticipant {
         }
         // A new test: the hand starts at rest on the first lit target.
         self.start_trial(trial, now);
-        self.behaviour = Behaviour::Tap(Box::new(Tap::start(lit_other, w_eff, 0.0)));
+        let t = self.traits;
+        let planner = self
+            .planner
+            .get_or_insert_with(|| {
+                let limb = movement::settling_s(
+                    t.hand_mass_kg,
+                    t.hand_stiffness_n_m,
+                    t.hand_damping_n_s_m,
+                );
+                Arc::new(Planner::new(t.motor_noise_s, t.feedback_s, limb))
+            })
+            .clone();
+        self.behaviour = Behaviour::Tap(Box::new(Tap::start(planner, lit_other, w_eff, 0.0)));
         Reaction {
             inputs: vec![],
             reset_to: Some(lit_other[0]),
@@ -534,7 +602,8 @@ impl SimParticipant {
     pub fn decide(&mut self, now: Time, sample: &DeviceSample) -> Reaction {
         // The exploring hand, every tick of a magnitude trial: in place.
         if let Behaviour::Explore(e) = &mut self.behaviour {
-            e.felt.add(sample.force_n, sample.vibration, sample.v_m_s);
+            e.felt
+                .add(sample.force_n, sample.vibration, sample.v_m_s, sample.x_m);
             if now < e.stop || e.answered {
                 return Reaction::default();
             }
@@ -545,7 +614,7 @@ impl SimParticipant {
             Behaviour::Explore(e) => {
                 // Felt this tick already (above); time to answer.
                 e.answered = true;
-                let answer = self.answer(&e.felt);
+                let answer = self.answer(&e.felt, e.judged);
                 Reaction {
                     inputs: vec![Input::Answer(Answer::Magnitude(answer))],
                     reset_to: None,
@@ -570,7 +639,13 @@ impl SimParticipant {
     fn slide_tick(&mut self, sl: &mut Slide, now: Time, sample: &DeviceSample) -> Reaction {
         let s = (now - sl.start).secs();
         if sl.forced {
-            sl.felt.add(s, sample.x_m, sample.force_n, sample.vibration);
+            sl.felt.add(
+                s,
+                sample.x_m,
+                sample.v_m_s,
+                sample.force_n,
+                sample.vibration,
+            );
         } else {
             sl.trace.push((s, sample.force_n));
         }
@@ -578,9 +653,9 @@ impl SimParticipant {
             return Reaction::default();
         }
         if sl.forced {
-            let t = self.traits;
-            let strength = sl.felt.strength(t.breakaway_weight, t.tactile_gain_n);
-            sl.strengths[sl.stimulus] = strength.max(1e-9) * self.normal(t.acuity.force).exp();
+            sl.strengths[sl.stimulus] = self.perceive(&sl.felt.cues, sl.judged, |t| {
+                sl.felt.strength(t.breakaway_weight, t.tactile_gain_n)
+            });
         } else {
             let felt = percept::slide_features(&sl.trace);
             let desk = self.desk_memory();
@@ -606,21 +681,39 @@ impl SimParticipant {
         }
     }
 
-    fn answer(&mut self, felt: &Felt) -> String {
+    /// The perceived amount of `quality`: viscosity and stiffness from
+    /// their two cues ([`percept::Cues::percept`]); friction as
+    /// `friction(traits)` (its felt strength, N) with the force's
+    /// log-normal noise.
+    fn perceive(
+        &mut self,
+        cues: &percept::Cues,
+        quality: Quality,
+        friction: impl FnOnce(&Traits) -> f64,
+    ) -> f64 {
         let t = self.traits;
-        let magnitude = felt.magnitude(t.breakaway_weight, t.tactile_gain_n);
-        let perceived = magnitude.max(1e-6) * self.normal(t.acuity.force).exp();
+        match cues.percept(quality, &t.acuity, || self.normal(1.0)) {
+            Some(p) => p,
+            None => friction(&t).max(1e-6) * self.normal(t.acuity.force).exp(),
+        }
+    }
+
+    fn answer(&mut self, felt: &Felt, quality: Quality) -> String {
+        let perceived = self.perceive(&felt.cues, quality, |t| {
+            felt.magnitude(t.breakaway_weight, t.tactile_gain_n)
+        });
+        let t = self.traits;
         let noise = self.normal(t.answer_noise);
-        let value = t.modulus * perceived.powf(t.exponent) * noise.exp();
+        let value = t.modulus * perceived.max(1e-12).powf(t.exponent_of(quality)) * noise.exp();
         format!("{value:.4}")
     }
 
     fn magnitude_answer(&mut self) -> String {
-        let felt = match &self.behaviour {
-            Behaviour::Explore(e) => e.felt.clone(),
-            _ => Felt::default(),
+        let (felt, quality) = match &self.behaviour {
+            Behaviour::Explore(e) => (e.felt.clone(), e.judged),
+            _ => (Felt::default(), Quality::Friction),
         };
-        self.answer(&felt)
+        self.answer(&felt, quality)
     }
 
     fn paired_choice(&mut self) -> Choice {

@@ -21,6 +21,23 @@
 //!   1991), then Stevens' power law (Stevens 1957) with the participant's own
 //!   exponent, modulus and log-normal answer noise.
 //!
+//! # Viscosity and stiffness: two cues, each with its own noise
+//! A quality other than friction is judged from the cues it is made of
+//! (Jones & Hunter's analysis of stiffness and viscosity as force over
+//! displacement and force over velocity): the RMS force on the hand and
+//! the RMS velocity of the hand (viscosity), or its RMS displacement from
+//! where the exploration started (stiffness), over the exploration. Each
+//! cue is perceived with its own log-normal noise: the force with the
+//! force Weber fraction, the velocity and the displacement with their
+//! kinesthetic Weber fractions ([`super::Population::velocity_weber`],
+//! [`super::Population::displacement_weber`], with their sources). The
+//! percept is the ratio of the perceived cues ([`Cues::percept`]), so its
+//! own Weber fraction is what the two noises imply together, and nothing
+//! else: `sqrt(sigma_F^2 + sigma_cue^2)` in ln units. Magnitude estimates
+//! of each quality follow its own Stevens exponent where the literature
+//! measures one (viscosity: Stevens & Guirao 1964; stiffness: Harper &
+//! Stevens 1964), the friction exponent being free.
+//!
 //! # Nearness to a real surface (paired comparison)
 //! Each slide (seed 000's: rest, then the hand's reference moves at
 //! 0.03 m/s) is summarised by three features of the force the finger felt
@@ -48,6 +65,7 @@
 
 use crate::friction::{DahlParams, ForceLimit, Friction, Input, ModelParams};
 use crate::hand::{Hand, HandDrive};
+use crate::protocol::kind::Quality;
 
 /// Seed 000's slide, as the participant performs it: rest, then the hand's
 /// reference moves at this speed (seed 000: "about 0.03 m/s").
@@ -102,6 +120,61 @@ pub fn slide_features(trace: &[(f64, f64)]) -> Features {
 /// friction (free: 15 mm, under half the range).
 pub const FORCED_TRAVEL_M: f64 = 0.015;
 
+/// Root-mean-square force, velocity and displacement over an exploration:
+/// the cues viscosity and stiffness are judged from.
+#[derive(Debug, Clone, Default)]
+pub struct Cues {
+    x0: Option<f64>,
+    f2: f64,
+    v2: f64,
+    x2: f64,
+    n: f64,
+}
+
+impl Cues {
+    /// One sample: device position, velocity, force on the hand.
+    pub fn add(&mut self, x_m: f64, v_m_s: f64, force_n: f64) {
+        let x0 = *self.x0.get_or_insert(x_m);
+        self.f2 += force_n * force_n;
+        self.v2 += v_m_s * v_m_s;
+        self.x2 += (x_m - x0) * (x_m - x0);
+        self.n += 1.0;
+    }
+
+    /// RMS force (N), velocity (m/s) and displacement from the first
+    /// sample (m).
+    #[must_use]
+    pub fn rms(&self) -> [f64; 3] {
+        let n = self.n.max(1.0);
+        [
+            (self.f2 / n).sqrt(),
+            (self.v2 / n).sqrt(),
+            (self.x2 / n).sqrt(),
+        ]
+    }
+
+    /// The perceived viscosity (N s/m) or stiffness (N/m): the perceived
+    /// RMS force over the perceived RMS velocity or displacement, each
+    /// with its own log-normal noise (`normal()` draws N(0, 1)). `None`
+    /// for friction, which is judged from other features.
+    pub fn percept(
+        &self,
+        quality: Quality,
+        acuity: &Acuity,
+        mut normal: impl FnMut() -> f64,
+    ) -> Option<f64> {
+        let [f, v, x] = self.rms();
+        let (cue, weber) = match quality {
+            Quality::Friction => return None,
+            Quality::Viscosity => (v, acuity.velocity),
+            Quality::Stiffness => (x, acuity.displacement),
+        };
+        let force = f.max(1e-9) * (acuity.force * normal()).exp();
+        let cue = cue.max(1e-12) * (weber * normal()).exp();
+        Some(force / cue)
+    }
+}
+
 /// What a two-interval forced choice ("which felt like more friction")
 /// feels of a slide: over the first [`FORCED_TRAVEL_M`] of travel after
 /// the rest, the break-away (peak |force|), the mean |force| and the RMS
@@ -119,12 +192,14 @@ pub struct BreakAway {
     n: f64,
     vib2: f64,
     done: bool,
+    /// The same stretch's cues, for viscosity and stiffness.
+    pub cues: Cues,
 }
 
 impl BreakAway {
     /// One tick `s` into the slide (rest included): device position, force
     /// on the hand, vibrotactile drive.
-    pub fn add(&mut self, s: f64, x_m: f64, force_n: f64, vibration: f64) {
+    pub fn add(&mut self, s: f64, x_m: f64, v_m_s: f64, force_n: f64, vibration: f64) {
         if s < SLIDE_REST_S || self.done {
             return;
         }
@@ -133,6 +208,7 @@ impl BreakAway {
             self.done = true;
             return;
         }
+        self.cues.add(x_m, v_m_s, force_n);
         self.peak = self.peak.max(force_n.abs());
         self.sum += force_n.abs();
         self.vib2 += vibration * vibration;
@@ -213,7 +289,8 @@ pub fn desk_slide(desk: Desk, mass_kg: f64, stiffness: f64, damping: f64) -> Vec
     trace
 }
 
-/// Weber fractions and floor with which a slide's features are perceived.
+/// Weber fractions (SD of ln) and floor with which forces, vibrations and
+/// the hand's own motion are perceived.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Acuity {
     /// Force Weber fraction.
@@ -222,6 +299,10 @@ pub struct Acuity {
     pub vibration: f64,
     /// Vibration floor, N.
     pub floor_n: f64,
+    /// The hand's displacement, Weber fraction.
+    pub displacement: f64,
+    /// The hand's velocity, Weber fraction.
+    pub velocity: f64,
 }
 
 impl Acuity {
@@ -248,6 +329,8 @@ impl Acuity {
 /// What the hand felt while exploring a magnitude-estimation stimulus.
 #[derive(Debug, Clone, Default)]
 pub struct Felt {
+    /// The exploration's cues, for viscosity and stiffness.
+    pub cues: Cues,
     sum_abs_f: f64,
     sum_vib2: f64,
     n: f64,
@@ -258,8 +341,10 @@ pub struct Felt {
 }
 
 impl Felt {
-    /// Adds one sample: force on the hand, vibration drive, device velocity.
-    pub fn add(&mut self, force_n: f64, vibration: f64, v_m_s: f64) {
+    /// Adds one sample: force on the hand, vibration drive, device
+    /// velocity and position.
+    pub fn add(&mut self, force_n: f64, vibration: f64, v_m_s: f64, x_m: f64) {
+        self.cues.add(x_m, v_m_s, force_n);
         self.sum_abs_f += force_n.abs();
         self.sum_vib2 += vibration * vibration;
         self.n += 1.0;
@@ -313,6 +398,8 @@ mod tests {
             force: 0.1,
             vibration: 0.2,
             floor_n: 0.05,
+            displacement: 0.14,
+            velocity: 0.18,
         };
         let x = [2.0, 1.0, 0.1];
         assert!(a.distance(x, x).abs() < 1e-12);
@@ -331,10 +418,92 @@ mod tests {
             (5.0, -0.1),
             (1.0, 0.1),
         ] {
-            felt.add(f, 0.0, v);
+            felt.add(f, 0.0, v, 0.0);
         }
         // Strokes peak at 3 and 5; mean |F| = 12/6.
         assert!((felt.magnitude(1.0, 0.0) - 4.0).abs() < 1e-12);
         assert!((felt.magnitude(0.0, 0.0) - 2.0).abs() < 1e-12);
+    }
+
+    /// The viscosity percept of a damper explored at a steady stroke: its
+    /// 75 %-correct two-interval Weber fraction is what the force and
+    /// velocity noises imply together, `exp(sqrt(2) sqrt(sF^2 + sv^2)
+    /// Phi^-1(0.75)) - 1`; the stiffness percept's likewise with the
+    /// displacement noise.
+    #[test]
+    fn a_ratio_percepts_weber_fraction_is_what_its_two_cues_noises_imply() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Normal};
+        let acuity = Acuity {
+            force: 0.1,
+            vibration: 0.2,
+            floor_n: 0.05,
+            displacement: 0.14,
+            velocity: 0.18,
+        };
+        let unit = Normal::new(0.0, 1.0).expect("unit normal");
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(44);
+        // A stroke of 1 cm at 1.5 Hz on a damper `b` or a spring `k`.
+        let explore = |quality: Quality, level: f64| {
+            let mut cues = Cues::default();
+            for i in 0..3000 {
+                let t = f64::from(i) * 1e-3;
+                let w = std::f64::consts::TAU * 1.5;
+                let (x, v) = (0.01 * (w * t).sin(), 0.01 * w * (w * t).cos());
+                let f = match quality {
+                    Quality::Stiffness => -level * x,
+                    _ => -level * v,
+                };
+                cues.add(x, v, f);
+            }
+            cues
+        };
+        let z75 = 0.674_489_750_196_081_7;
+        for (quality, cue) in [
+            (Quality::Viscosity, acuity.velocity),
+            (Quality::Stiffness, acuity.displacement),
+        ] {
+            let sigma = (acuity.force.powi(2) + cue.powi(2)).sqrt();
+            let weber = (std::f64::consts::SQRT_2 * sigma * z75).exp() - 1.0;
+            let (a, b) = (
+                explore(quality, 10.0),
+                explore(quality, 10.0 * (1.0 + weber)),
+            );
+            let [ra, rb] = [&a, &b].map(Cues::rms);
+            // The cue ratio of the stimulus is its level.
+            assert!(
+                (ra[0]
+                    / if quality == Quality::Stiffness {
+                        ra[2]
+                    } else {
+                        ra[1]
+                    }
+                    - 10.0)
+                    .abs()
+                    < 1e-6
+            );
+            assert!(rb[0] > ra[0]);
+            let n = 40_000;
+            let mut draw = || unit.sample(&mut rng);
+            let correct = (0..n)
+                .filter(|_| {
+                    let pa = a.percept(quality, &acuity, &mut draw).expect("a ratio");
+                    let pb = b.percept(quality, &acuity, &mut draw).expect("a ratio");
+                    pb > pa
+                })
+                .count();
+            #[expect(clippy::cast_precision_loss, reason = "small counts")]
+            let p = correct as f64 / f64::from(n);
+            // SE of a proportion over 40,000 pairs: 0.0022.
+            assert!(
+                (p - 0.75).abs() < 0.01,
+                "{quality:?}: {p} correct at the predicted {weber}"
+            );
+        }
+        assert!(
+            explore(Quality::Friction, 1.0)
+                .percept(Quality::Friction, &acuity, || 0.0)
+                .is_none()
+        );
     }
 }

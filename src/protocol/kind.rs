@@ -36,6 +36,22 @@ use super::load::Walk;
 use super::plan::resolve;
 use crate::time::Time;
 
+/// The quality of a stimulus a participant is asked to judge: what a
+/// magnitude estimate or a forced choice is about. A person reads it in the
+/// instructions; the simulated participant gets it from the protocol (and
+/// forms the percept from the cues that quality is judged by).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, serde::Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Quality {
+    /// Friction: the force at break-away and while sliding (the default).
+    #[default]
+    Friction,
+    /// Viscosity: force over velocity.
+    Viscosity,
+    /// Stiffness: force over displacement.
+    Stiffness,
+}
+
 /// A part of a kind that a plan holds (a trial): data, sent between
 /// threads.
 pub trait Planned:
@@ -107,6 +123,8 @@ pub trait Kinds: Debug + Clone + Copy + PartialEq + Send + Sync + 'static {
     /// The conditions of a trial a set preference may name (see
     /// [`Kinds::preferable`]), in presentation order; empty for the others.
     fn preferable_stimuli(trial: &Self::Trial) -> Vec<&str>;
+    /// The quality a trial asks the participant to judge.
+    fn judged(trial: &Self::Trial) -> Quality;
 
     /// The kind of logged data.
     fn data_kind(data: &Self::Data) -> &'static str;
@@ -241,6 +259,12 @@ pub trait StudyKind: Sized + 'static {
     /// [`StudyKind::preferable`]), in presentation order; by default none.
     fn preferable_stimuli(_trial: &Self::Trial) -> Vec<&str> {
         Vec::new()
+    }
+
+    /// The quality the trial asks the participant to judge; by default
+    /// friction.
+    fn judged(_trial: &Self::Trial) -> Quality {
+        Quality::Friction
     }
 
     /// The haptic loop rate the trial's models need, Hz.

@@ -46,7 +46,7 @@ use crate::friction::ModelParams;
 use crate::kinds::paired::{Compare, Paired, PairedData, PairedTrial};
 use crate::protocol::check::{Checks, MAX_TRIALS};
 use crate::protocol::engine::{Action, Choice, Input, Status, TrialRecord, TrialSource};
-use crate::protocol::kind::{Holds, Kinds, LiveTrial, Next, StudyKind};
+use crate::protocol::kind::{Holds, Kinds, LiveTrial, Next, Quality, StudyKind};
 use crate::protocol::load::Walk;
 use crate::protocol::plan::PlannedTrial;
 use crate::protocol::{Condition, Protocol};
@@ -285,6 +285,11 @@ pub struct DiscriminationDesign {
     pub comparison: Comparison,
     /// The question, asking for the stimulus with more of the parameter.
     pub question: String,
+    /// The quality the question asks about (`friction`, the default;
+    /// `viscosity`; `stiffness`): what the simulated participant forms its
+    /// percept of.
+    #[serde(default)]
+    pub judged: Quality,
     /// Longest exploration of each stimulus, s.
     pub exploration_s: f64,
     /// The proportion correct that defines the threshold (0.5-1).
@@ -303,6 +308,9 @@ pub struct DiscriminationTrial {
     pub pair: PairedTrial,
     /// The question.
     pub question: String,
+    /// The quality the question asks about.
+    #[serde(default)]
+    pub judged: Quality,
     /// The track (index of its level).
     pub track: usize,
     /// The reference level.
@@ -461,6 +469,7 @@ impl StudyKind for Discrimination {
             "levels",
             "comparison",
             "question",
+            "judged",
             "exploration_s",
             "criterion",
             "method",
@@ -473,6 +482,7 @@ impl StudyKind for Discrimination {
         let levels = w.required(m, "levels", path);
         let comparison = w.required(m, "comparison", path);
         let question = w.required(m, "question", path);
+        let judged = w.optional(m, "judged", path, Quality::Friction);
         let exploration_s = w.required(m, "exploration_s", path);
         let criterion = w.required(m, "criterion", path);
         let method = w.required(m, "method", path);
@@ -484,6 +494,7 @@ impl StudyKind for Discrimination {
             levels: levels?,
             comparison: comparison?,
             question: question?,
+            judged: judged?,
             exploration_s: exploration_s?,
             criterion: criterion?,
             method: method?,
@@ -617,6 +628,10 @@ impl StudyKind for Discrimination {
             start: MethodStart::new(&design.method),
             memo: std::sync::Mutex::default(),
         })
+    }
+
+    fn judged(t: &DiscriminationTrial) -> Quality {
+        t.judged
     }
 
     fn loop_rate_hz(t: &DiscriminationTrial) -> f64 {
@@ -1004,6 +1019,7 @@ impl<K: Holds<Discrimination>> TrialSource<K> for Source {
                     exploration_s: d.exploration_s,
                 },
                 question: d.question.clone(),
+                judged: d.judged,
                 track,
                 level,
                 difference,

@@ -23,7 +23,9 @@ use crate::analysis::{AnalysisEntry, KindAnalysis, Section, designs_of};
 use crate::friction::{ModelParams, NakanoParams, Validate, parameter_problem, with_parameter};
 use crate::protocol::check::Checks;
 use crate::protocol::engine::{Action, Answer, Input, Question, Screen};
-use crate::protocol::kind::{Block, Exploration, Holds, Kinds, LiveTrial, Next, StudyKind};
+use crate::protocol::kind::{
+    Block, Exploration, Holds, Kinds, LiveTrial, Next, Quality, StudyKind,
+};
 use crate::protocol::load::Walk;
 use crate::time::Time;
 
@@ -64,6 +66,11 @@ pub struct Scaling {
     /// Its levels, in the parameter's units, each presented `repetitions`
     /// times (the protocol's), in random order.
     pub levels: Vec<f64>,
+    /// The quality the participant is asked to judge (`friction`, the
+    /// default; `viscosity`; `stiffness`): what the simulated participant
+    /// forms its percept of.
+    #[serde(default)]
+    pub judged: Quality,
 }
 
 /// One display's set of stimuli.
@@ -100,6 +107,9 @@ pub struct MagnitudeTrial {
     pub stimulus: Level,
     /// Longest exploration, s.
     pub exploration_s: f64,
+    /// The quality judged (seed 001's sets: friction).
+    #[serde(default)]
+    pub judged: Quality,
 }
 
 /// A stimulus: seed 001's coefficients, or a scaling's level.
@@ -242,17 +252,19 @@ impl StudyKind for Magnitude {
             None => Some(None),
             Some(v) => {
                 let p = crate::protocol::load::join(path, "scaling");
-                w.object(v, &p, &["display", "reference", "parameter", "levels"])
+                w.object(v, &p, &["display", "reference", "parameter", "levels", "judged"])
                     .and_then(|s| {
                         let display = w.required::<String>(s, "display", &p);
                         let reference = w.model_field(s, "reference", &p);
                         let parameter = w.required::<String>(s, "parameter", &p);
                         let levels = w.required::<Vec<f64>>(s, "levels", &p);
+                        let judged = w.optional(s, "judged", &p, Quality::Friction);
                         Some(Some(Scaling {
                             display: display?,
                             reference: reference?,
                             parameter: parameter?,
                             levels: levels?,
+                            judged: judged?,
                         }))
                     })
             }
@@ -363,6 +375,7 @@ impl StudyKind for Magnitude {
                             model: with_parameter(&sc.reference, &sc.parameter, level)?,
                             stimulus: Level::Scaled(sc.parameter.clone(), level),
                             exploration_s: d.exploration_s,
+                            judged: sc.judged,
                         })
                     })
                     .collect(),
@@ -381,10 +394,15 @@ impl StudyKind for Magnitude {
                         model: stimulus_model(&set.model, s),
                         stimulus: Level::Coefficients(s),
                         exploration_s: d.exploration_s,
+                        judged: Quality::Friction,
                     })
                     .collect(),
             })
             .collect()
+    }
+
+    fn judged(t: &MagnitudeTrial) -> Quality {
+        t.judged
     }
 
     fn loop_rate_hz(t: &MagnitudeTrial) -> f64 {
