@@ -50,10 +50,10 @@ all='paired-comparison magnitude-estimation fitts'
 replay default '{}' $all
 replay hand-impedance-low '{"hand_stiffness_n_m": [100, 400], "hand_damping_n_s_m": [5, 20]}' $all
 replay hand-impedance-high '{"hand_stiffness_n_m": [400, 1600], "hand_damping_n_s_m": [20, 80]}' $all
-replay motor-noise-low '{"motor_noise": [0.02, 0.04]}' $all
-replay motor-noise-high '{"motor_noise": [0.08, 0.16]}' $all
-replay perceptual-noise-low '{"position_sd_m": [5e-5, 1.5e-4], "force_weber": [0.035, 0.075], "vibration_weber": [0.075, 0.15]}' $all
-replay perceptual-noise-high '{"position_sd_m": [2e-4, 6e-4], "force_weber": [0.14, 0.3], "vibration_weber": [0.3, 0.6]}' $all
+replay motor-noise-low '{"motor_noise_s": [0.005, 0.01]}' $all
+replay motor-noise-high '{"motor_noise_s": [0.02, 0.04]}' $all
+replay perceptual-noise-low '{"position_sd_m": [5e-5, 1.5e-4], "force_weber": [0.035, 0.075], "vibration_weber": [0.075, 0.15], "displacement_weber": [0.05, 0.09], "velocity_weber": [0.06, 0.12]}' $all
+replay perceptual-noise-high '{"position_sd_m": [2e-4, 6e-4], "force_weber": [0.14, 0.3], "vibration_weber": [0.3, 0.6], "displacement_weber": [0.2, 0.36], "velocity_weber": [0.24, 0.48]}' $all
 replay breakaway-weight-0 '{"breakaway_weight": 0.0}' magnitude-estimation
 replay breakaway-weight-1 '{"breakaway_weight": 1.0}' magnitude-estimation
 replay tactile-gain-0.01 '{"tactile_gain_n": 0.01}' magnitude-estimation

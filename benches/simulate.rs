@@ -4,6 +4,8 @@
 //! The real-time factor is the simulated session time divided by the median
 //! wall time; the aim is >= 1,000x (stretch: 10,000x). One session at a time
 //! (`jobs-1`), and one per core (`jobs-all`, as `simulate` does by default).
+//! And `protocols/fitts-quick.json` with 10 participants, one session at a
+//! time: the Fitts movements' planner (issue 44) runs there.
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -87,6 +89,16 @@ fn simulate(c: &mut Criterion) {
             b.iter(|| black_box(study(&text, &root, jobs)));
         });
     }
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/protocols/fitts-quick.json");
+    let fitts = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    let root = std::env::temp_dir();
+    let simulated = study(&fitts, &root, 1);
+    eprintln!(
+        "fitts-quick-10-participants/disk/jobs-1: {simulated:.1} s of session time per iteration"
+    );
+    group.bench_function("fitts-quick-10-participants/disk/jobs-1", |b| {
+        b.iter(|| black_box(study(&fitts, &root, 1)));
+    });
     group.finish();
 }
 

@@ -215,6 +215,14 @@ fn broken_protocols_name_the_json_path_and_reason() {
         has(&e, "design.practice[0]", "unknown condition 'nope'"),
         "{e:?}"
     );
+    let (text, _) = shipped("discrimination-quick");
+    let mut v: Value = serde_json::from_str(&text).unwrap();
+    v["design"]["judged"] = json!("hardness");
+    let e = parse::<Registry>(&v.to_string()).expect_err("should be refused");
+    assert!(
+        has(&e, "design.judged", "unknown variant `hardness`"),
+        "{e:?}"
+    );
     let e = fitts_broken(|v| v["design"]["conditions"][2]["model"]["f_static_n"] = json!("big"));
     assert!(
         has(&e, "design.conditions[2].model.f_static_n", "invalid type"),

@@ -82,7 +82,8 @@ fn num(r: &Row, k: &str) -> f64 {
     r[k].parse().unwrap()
 }
 
-fn pearson(xy: &[(f64, f64)]) -> f64 {
+/// The centred sums of products: (Sxy, Sxx, Syy).
+fn moments(xy: &[(f64, f64)]) -> (f64, f64, f64) {
     let n = xy.len() as f64;
     let (mx, my) = (
         xy.iter().map(|p| p.0).sum::<f64>() / n,
@@ -91,6 +92,11 @@ fn pearson(xy: &[(f64, f64)]) -> f64 {
     let sxy: f64 = xy.iter().map(|(x, y)| (x - mx) * (y - my)).sum();
     let sxx: f64 = xy.iter().map(|(x, _)| (x - mx).powi(2)).sum();
     let syy: f64 = xy.iter().map(|(_, y)| (y - my).powi(2)).sum();
+    (sxy, sxx, syy)
+}
+
+fn pearson(xy: &[(f64, f64)]) -> f64 {
+    let (sxy, sxx, syy) = moments(xy);
     sxy / (sxx * syy).sqrt()
 }
 
@@ -182,6 +188,49 @@ fn paired_answers_follow_the_renderings_not_their_labels() {
     );
 }
 
+/// Each participant's least-squares slope of ln answer on ln level, and
+/// their mean.
+fn mean_exponent(rows: &[Row]) -> f64 {
+    let mut by: BTreeMap<&str, Vec<(f64, f64)>> = BTreeMap::new();
+    for r in rows {
+        by.entry(r["participant"].as_str())
+            .or_default()
+            .push((num(r, "level").ln(), num(r, "magnitude").ln()));
+    }
+    let slopes: Vec<f64> = by
+        .values()
+        .map(|xy| {
+            let (sxy, sxx, _) = moments(xy);
+            sxy / sxx
+        })
+        .collect();
+    slopes.iter().sum::<f64>() / slopes.len() as f64
+}
+
+/// Asked about viscosity, the participant judges force over velocity, so
+/// the exponent of its answers on the damping is its own viscosity
+/// exponent (drawn from 0.42-0.46) passed through, within the answers'
+/// noise (about 0.03 for the mean of 6); asked about friction, the same
+/// stirring is judged from the force alone, which grows with the damping
+/// at the hand's own speed, under the friction exponent (0.6-1.1).
+#[test]
+fn viscosity_is_judged_from_force_over_velocity() {
+    let exponent = |judged: &str| {
+        let rows = simulate("../analysis/validation/viscosity-magnitude", 6, 5, |v| {
+            v["design"]["scaling"]["judged"] = json!(judged);
+        });
+        assert_eq!(rows.len(), 6 * 18);
+        mean_exponent(&rows)
+    };
+    let viscosity = exponent("viscosity");
+    assert!((viscosity - 0.44).abs() < 0.1, "viscosity: {viscosity}");
+    let friction = exponent("friction");
+    assert!(
+        friction > viscosity + 0.2,
+        "friction {friction}, viscosity {viscosity}"
+    );
+}
+
 #[test]
 fn baseline_movement_time_grows_with_the_index_of_difficulty() {
     let rows = simulate("fitts", 6, 9, |v| {
@@ -210,8 +259,13 @@ fn baseline_movement_time_grows_with_the_index_of_difficulty() {
     assert!(r * r > 0.8, "r² of mean MT on ID = {}", r * r);
 }
 
+/// Fitts' logarithm is not written in the participant. Since issue 44 a
+/// submovement's duration does depend on the target: Meyer et al.'s
+/// optimisation picks it (movement.rs's tests show it is the least
+/// expected time, a function of D / W only); what movement time does
+/// with log2(D / W) is left to the replays.
 #[test]
-fn the_participant_has_no_duration_law() {
+fn the_participant_has_no_fitts_logarithm_written_in() {
     let dir = format!("{}/src/participant", env!("CARGO_MANIFEST_DIR"));
     for entry in std::fs::read_dir(dir).unwrap() {
         let path = entry.unwrap().path();
@@ -219,8 +273,8 @@ fn the_participant_has_no_duration_law() {
         for line in code.lines().filter(|l| !l.trim_start().starts_with("//")) {
             assert!(!line.contains("log2"), "{}: {line}", path.display());
             assert!(
-                !(line.contains("duration") && line.contains("width")),
-                "{}: a width-dependent duration: {line}",
+                !line.contains("id_bits") && !line.contains("index_of_difficulty"),
+                "{}: the index of difficulty: {line}",
                 path.display()
             );
         }

@@ -602,8 +602,10 @@ impl SimParticipant {
     pub fn decide(&mut self, now: Time, sample: &DeviceSample) -> Reaction {
         // The exploring hand, every tick of a magnitude trial: in place.
         if let Behaviour::Explore(e) = &mut self.behaviour {
-            e.felt
-                .add(sample.force_n, sample.vibration, sample.v_m_s, sample.x_m);
+            e.felt.add(sample.force_n, sample.vibration, sample.v_m_s);
+            if e.judged != Quality::Friction {
+                e.felt.cues.add(sample.x_m, sample.v_m_s, sample.force_n);
+            }
             if now < e.stop || e.answered {
                 return Reaction::default();
             }

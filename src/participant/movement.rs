@@ -60,27 +60,27 @@ const AT_REST_M_S: f64 = 0.01;
 const SETTLE_S: f64 = 0.3;
 
 /// Submovements the expected time looks ahead: after this many misses in
-/// a row the rest is left out of the expectation (it weighs
-/// `P_miss^LOOKAHEAD`, under 1e-4 at the durations chosen).
-const LOOKAHEAD: usize = 4;
+/// a row the rest is left out of the expectation (it weighs the product of
+/// their miss probabilities; a correction from a few half-widths rarely
+/// misses).
+const LOOKAHEAD: usize = 3;
 /// The grid of `D / (W / 2)` the expected times are tabulated on
 /// (log-spaced; beyond its ends the nearest end is used).
-const R_RANGE: (f64, f64, usize) = (1.0, 1e4, 161);
+const R_RANGE: (f64, f64, usize) = (1.0, 1e4, 61);
 /// Durations searched, s (log-spaced grid, then refined).
-const T_RANGE: (f64, f64, usize) = (0.02, 4.0, 120);
+const T_RANGE: (f64, f64, usize) = (0.02, 4.0, 30);
 
 /// The optimised-submovement planner of one participant: its noise
 /// constant `K`, its feedback delay, its limb's settling time, and the
 /// expected time to hit a target from distance `r` half-widths,
 /// tabulated.
 ///
-/// A submovement's duration `T` is the movement's, from its start until
-/// the limb is at rest (Meyer et al.'s submovements end at zero
-/// velocity), and `S = K D / T` is its spread. The equilibrium point can
-/// jump, but the limb cannot follow faster than its own impedance lets
-/// it: a movement lasts at least the limb's settling time
-/// ([`settling_s`]), and the equilibrium point's minimum-jerk path is
-/// given the rest, `T - settling`.
+/// A submovement's duration `T` is that of the equilibrium point's
+/// minimum-jerk path, and `S = K D / T` is its spread. The planner never
+/// picks a `T` shorter than the limb's own settling time ([`settling_s`]):
+/// the limb cannot follow a faster path, so its movement would last about
+/// as long anyway while the faster command's noise grows; such a `T` is
+/// dominated.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Planner {
     k_s: f64,
@@ -201,7 +201,9 @@ impl Planner {
             grid(range, (bi + 1).min(n - 1)).exp(),
         );
         let g = (5.0_f64.sqrt() - 1.0) / 2.0;
-        for _ in 0..40 {
+        // 24 steps shrink the bracket (two grid steps, 44 %) to 1e-5 of
+        // itself.
+        for _ in 0..24 {
             let (a, b) = (hi - g * (hi - lo), lo + g * (hi - lo));
             if self.cost(r, a) < self.cost(r, b) {
                 hi = b;
@@ -216,13 +218,6 @@ impl Planner {
         } else {
             (grid(range, bi).exp(), bc)
         }
-    }
-
-    /// The part of a movement of `duration` the equilibrium point's path
-    /// takes, s: all but the limb's settling time.
-    #[must_use]
-    pub fn reference_s(&self, duration: f64) -> f64 {
-        (duration - self.settling_s).max(0.0)
     }
 
     /// The duration the participant gives a submovement of `distance` to a
@@ -329,7 +324,7 @@ impl Tap {
         self.from = from;
         self.to = from + shift + normal(self.planner.aim_sd(shift, duration));
         self.t0 = t0;
-        self.duration = self.planner.reference_s(duration);
+        self.duration = duration;
         self.settling_since = None;
         self.pressing = None;
         self.waiting = false;

@@ -342,9 +342,10 @@ pub struct Felt {
 
 impl Felt {
     /// Adds one sample: force on the hand, vibration drive, device
-    /// velocity and position.
-    pub fn add(&mut self, force_n: f64, vibration: f64, v_m_s: f64, x_m: f64) {
-        self.cues.add(x_m, v_m_s, force_n);
+    /// velocity. (The cues of viscosity and stiffness are added to
+    /// [`Felt::cues`] separately, only when one of them is judged: a
+    /// friction study's replay does not pay for them.)
+    pub fn add(&mut self, force_n: f64, vibration: f64, v_m_s: f64) {
         self.sum_abs_f += force_n.abs();
         self.sum_vib2 += vibration * vibration;
         self.n += 1.0;
@@ -418,7 +419,7 @@ mod tests {
             (5.0, -0.1),
             (1.0, 0.1),
         ] {
-            felt.add(f, 0.0, v, 0.0);
+            felt.add(f, 0.0, v);
         }
         // Strokes peak at 3 and 5; mean |F| = 12/6.
         assert!((felt.magnitude(1.0, 0.0) - 4.0).abs() < 1e-12);
