@@ -4,13 +4,8 @@
 //! and for trying without hardware.
 //!
 //! [`Board`] is the backend: it resets and sets the board up when the port
-//! first opens, sends one torque frame per loop tick and reads the angles
-//! each one is answered with. A port reopened after an error (a write that
-//! timed out under load, say) is not reset or set up again: a setup makes
-//! the encoders count from wherever the handle is, which is the
-//! calibration pose only before the session. (A board that lost its setup,
-//! power-cycled mid-session, answers torque frames with its id alone; the
-//! host does not yet tell those bytes from angles.) Forces become torques
+//! opens (and again when it reopens), sends one torque frame per loop tick
+//! and reads the angles each one is answered with. Forces become torques
 //! through the Jacobian at the last angles read (`τ = Jᵀ f`), scaled down
 //! as a whole when either is beyond the firmware's limit
 //! ([`MAX_TORQUE_N_M`]), so no torque the board would clamp is ever sent;
@@ -280,19 +275,13 @@ impl Backend for Board {
     fn read(&mut self, now_s: f64) -> Reading {
         let n = self.transport.read(&mut self.bytes);
         if self.transport.opens() != self.opens {
-            let first = self.opens == 0;
+            // A port (re)opened: the board may have been reset.
             self.opens = self.transport.opens();
-            // Bytes of a reply cut off by the error are not the next one's.
-            self.replies.clear();
-            if first {
-                // The handle is at the calibration pose: set up here, the
-                // encoders count from it. Never again (see the module docs).
-                self.transport.write(&self.config.wiring.reset());
-                self.transport.write(&self.config.wiring.setup());
-                self.setup_s = now_s;
-                self.pose = None;
-                self.last_reply_s = None;
-            }
+            self.transport.write(&self.config.wiring.reset());
+            self.transport.write(&self.config.wiring.setup());
+            self.setup_s = now_s;
+            self.pose = None;
+            self.last_reply_s = None;
         }
         if now_s - self.setup_s < SETTLE_S {
             self.replies.clear();
@@ -369,74 +358,6 @@ impl Backend for Board {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Ticks `board` and the emulated board `core` on the far end of
-    /// `port` `ticks` times from `now_s`, 1 ms apart (logical time); every
-    /// byte the host sends goes to `sent`. Returns the time after.
-    fn pump(
-        board: &mut Board,
-        port: &mut serialport::TTYPort,
-        core: &mut emulator::BoardCore,
-        sent: &mut Vec<u8>,
-        mut now_s: f64,
-        ticks: u32,
-    ) -> f64 {
-        use std::io::{Read, Write};
-        let (mut input, mut reply) = ([0_u8; 512], Vec::new());
-        for _ in 0..ticks {
-            board.read(now_s);
-            board.send_force(now_s, [0.0; 3], 0.0);
-            let n = port.read(&mut input).unwrap_or(0);
-            sent.extend_from_slice(&input[..n]);
-            reply.clear();
-            core.receive(&input[..n], &mut reply, &mut |_, _| {});
-            let _ = port.write_all(&reply);
-            now_s += 0.001;
-        }
-        now_s
-    }
-
-    /// A port that fails and opens again is not reset or set up again
-    /// (its encoders would count from wherever the handle is): after the
-    /// reopen the host sends whole torque frames only. (Here the port
-    /// comes back on a new emulated board, the strictest case: a reset or
-    /// setup would reach it.)
-    #[test]
-    fn a_reopened_port_is_not_reset_or_set_up_again() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("2diy");
-        let config = Config::vendor(3);
-        let (reset, setup) = (config.wiring.reset(), config.wiring.setup());
-        let torque = config.wiring.torques([0.0; 2]);
-        let mut board = Board::new(&path, config);
-        let mut first = crate::device::pty::open(&path).unwrap();
-        let (mut core, mut sent) = (emulator::BoardCore::new(&config), Vec::new());
-        let now = pump(&mut board, first.port(), &mut core, &mut sent, 0.0, 200);
-        assert!(board.angles().1 > 100, "{:?}", board.angles());
-        assert_eq!(&sent[..reset.len()], &reset[..], "a reset first");
-        assert_eq!(
-            &sent[reset.len()..][..setup.len()],
-            &setup[..],
-            "then a setup"
-        );
-        assert_eq!(board.transport.opens(), 1);
-        drop(first);
-        let mut now = now;
-        for _ in 0..5 {
-            board.read(now);
-            board.send_force(now, [0.0; 3], 0.0);
-            now += 0.001;
-        }
-        let mut second = crate::device::pty::open(&path).unwrap();
-        let (mut core, mut sent) = (emulator::BoardCore::new(&config), Vec::new());
-        pump(&mut board, second.port(), &mut core, &mut sent, now, 300);
-        assert_eq!(board.transport.opens(), 2, "reopened");
-        assert!(sent.len() >= 100 * torque.len(), "{} bytes", sent.len());
-        assert_eq!(sent.len() % torque.len(), 0, "whole torque frames");
-        for frame in sent.chunks(torque.len()) {
-            assert_eq!(frame[..2], torque[..2], "a torque frame: {frame:?}");
-        }
-    }
 
     #[test]
     fn the_default_track_is_in_reach_and_its_force_limit_keeps_torques_within_the_firmwares() {
