@@ -18,6 +18,7 @@ use std::time::{Duration, Instant};
 use frictionlab::kinds::{Action, LogLine, Registry};
 use frictionlab::protocol::engine::Status;
 use frictionlab::results::read_log;
+use frictionlab::session::Feed;
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_frictionlab"))
@@ -258,7 +259,7 @@ fn a_device_path_that_is_not_a_serial_port_is_bad_input() {
 fn a_live_gui_session_runs_on_the_emulated_device() {
     use frictionlab::protocol::engine::{Answer, Input, Screen};
     use frictionlab::session::SessionRequest;
-    use frictionlab::session::{DeviceChoice, LiveSession, Phase};
+    use frictionlab::session::{DeviceChoice, Feed, LiveSession, Phase};
 
     let dir = tempfile::tempdir().unwrap();
     let dev = dir.path().join("dev");
@@ -286,12 +287,14 @@ fn a_live_gui_session_runs_on_the_emulated_device() {
     };
     let mut live = LiveSession::start(&results, &req).unwrap();
     // Typed before the device has answered: kept until the log exists.
-    live.note("typed while connecting").unwrap();
+    live.feed(Feed::Note("typed while connecting".into()))
+        .unwrap();
     let start = Instant::now();
     let mut followed = false;
     let mut p99 = None;
     while live.phase() != Phase::Finished && start.elapsed() < Duration::from_secs(40) {
-        live.advance(start.elapsed().as_secs_f64()).unwrap();
+        live.feed(Feed::Frame(start.elapsed().as_secs_f64()))
+            .unwrap();
         live.set_hand_target(Some(0.004));
         let status = live.device_status();
         if status.connected && (status.x_m - 0.004).abs() < 1e-3 {
@@ -306,7 +309,7 @@ fn a_live_gui_session_runs_on_the_emulated_device() {
             _ => None,
         };
         if let Some(input) = input {
-            live.input(input).unwrap();
+            live.feed(Feed::Input(input)).unwrap();
         }
         std::thread::sleep(Duration::from_millis(5));
     }
@@ -345,7 +348,7 @@ fn a_live_gui_session_runs_on_the_emulated_device() {
 #[test]
 fn a_live_session_on_a_silent_device_writes_nothing() {
     use frictionlab::session::SessionRequest;
-    use frictionlab::session::{DeviceChoice, LiveSession, Phase};
+    use frictionlab::session::{DeviceChoice, Feed, LiveSession, Phase};
 
     let (_master, slave) = serialport::TTYPort::pair().unwrap();
     let port = serialport::SerialPort::name(&slave).unwrap();
@@ -370,16 +373,18 @@ fn a_live_session_on_a_silent_device_writes_nothing() {
     };
     let mut live = LiveSession::start(&results, &req).unwrap();
     assert_eq!(live.session(), 1);
-    live.note("waiting for the device").unwrap();
+    live.feed(Feed::Note("waiting for the device".into()))
+        .unwrap();
     let start = Instant::now();
     while start.elapsed() < Duration::from_millis(1500) {
-        live.advance(start.elapsed().as_secs_f64()).unwrap();
+        live.feed(Feed::Frame(start.elapsed().as_secs_f64()))
+            .unwrap();
         std::thread::sleep(Duration::from_millis(10));
     }
     assert!(!live.device_status().connected);
     assert!(live.view().screen.is_none(), "no trial started");
     assert!(!out.exists(), "nothing written while waiting");
-    live.abort().unwrap();
+    live.feed(Feed::Abort).unwrap();
     assert_eq!(live.phase(), Phase::Aborted);
     assert!(!out.exists(), "nothing written after the abort");
     assert!(!live.log_path().exists());
@@ -576,7 +581,7 @@ fn live_magnitude_quick(
     participant: &str,
     until: impl Fn(&frictionlab::session::LiveSession, Option<Instant>) -> bool,
 ) -> (frictionlab::session::LiveSession, Instant) {
-    use frictionlab::session::{DeviceChoice, LiveSession, SessionRequest};
+    use frictionlab::session::{DeviceChoice, Feed, LiveSession, SessionRequest};
     let (protocol, bytes) = magnitude_quick();
     let results = frictionlab::results::ResultsDir::new(dir.join("results"));
     let req = SessionRequest {
@@ -596,9 +601,10 @@ fn live_magnitude_quick(
     let start = Instant::now();
     let mut continued = None;
     while !until(&live, continued) && start.elapsed().as_secs() < 20 {
-        live.advance(start.elapsed().as_secs_f64()).unwrap();
+        live.feed(Feed::Frame(start.elapsed().as_secs_f64()))
+            .unwrap();
         if continued.is_none() && live.view().screen.is_some() {
-            live.input(frictionlab::protocol::engine::Input::Continue)
+            live.feed(Feed::Input(frictionlab::protocol::engine::Input::Continue))
                 .unwrap();
             continued = Some(Instant::now());
         }
@@ -622,13 +628,15 @@ fn a_device_lost_in_the_answer_phase_costs_that_trial_in_the_window() {
     unplug(emu, &dev);
     let lost = Instant::now();
     while live.device_status().connected && lost.elapsed().as_secs() < 5 {
-        live.advance(start.elapsed().as_secs_f64()).unwrap();
+        live.feed(Feed::Frame(start.elapsed().as_secs_f64()))
+            .unwrap();
         std::thread::sleep(Duration::from_millis(5));
     }
-    live.advance(start.elapsed().as_secs_f64()).unwrap();
+    live.feed(Feed::Frame(start.elapsed().as_secs_f64()))
+        .unwrap();
     assert!(!live.device_status().connected);
     assert_lost_in_answer_phase(live.log_path());
-    live.abort().unwrap();
+    live.feed(Feed::Abort).unwrap();
 }
 
 /// A device that stalls mid-trial (its process stopped for 0.4 s) while the
@@ -660,8 +668,9 @@ fn a_trial_aborted_for_a_stalled_device_records_nothing_from_after_the_stall() {
     std::thread::sleep(Duration::from_millis(400));
     signal("-CONT");
     std::thread::sleep(Duration::from_millis(400));
-    live.advance(start.elapsed().as_secs_f64()).unwrap();
-    live.abort().unwrap();
+    live.feed(Feed::Frame(start.elapsed().as_secs_f64()))
+        .unwrap();
+    live.feed(Feed::Abort).unwrap();
     unplug(emu, &dev);
 
     let read = read_log::<Registry>(live.log_path()).unwrap();

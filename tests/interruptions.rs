@@ -27,7 +27,7 @@ use frictionlab::kinds::{LogLine, Registry};
 use frictionlab::protocol::engine::Status;
 use frictionlab::results::{ResultsDir, data_csv, read_log};
 use frictionlab::session::{
-    DeviceChoice, Phase, SessionRequest, participant_seed, sim_id, sim_participant,
+    DeviceChoice, Feed, Phase, SessionRequest, participant_seed, sim_id, sim_participant,
 };
 use frictionlab::time::Time;
 
@@ -116,7 +116,12 @@ fn interrupt_and_resume(case: &Case, pace: f64, reference: &str) -> bool {
     .spawn()
     .unwrap();
     let start = Instant::now();
-    while !out.join("logs").exists() {
+    // The session has started once its files are all there: the log is
+    // written (and synced) before the data CSV is made, so under load a
+    // signal sent when only the log exists would land before the session.
+    let started =
+        |dir: &str| std::fs::read_dir(out.join(dir)).is_ok_and(|mut d| d.next().is_some());
+    while !(started("logs") && started("data")) {
         assert!(start.elapsed() < Duration::from_mins(1), "{case:?}: no log");
         std::thread::sleep(Duration::from_millis(2));
     }
@@ -284,15 +289,15 @@ fn a_pause_at_any_moment_gives_the_uninterrupted_data_issue_42() {
                 frame += 1;
                 let wall = f64::from(frame) / 60.0;
                 if Some(frame) == pause_at {
-                    s.pause().unwrap();
+                    s.handle(Feed::Pause).unwrap();
                 }
                 if s.phase() == Phase::Paused {
                     paused += 1;
                     if paused == 40 {
-                        s.resume().unwrap();
+                        s.handle(Feed::Resume).unwrap();
                     }
                 }
-                s.advance(wall).unwrap();
+                s.handle(Feed::Frame(wall)).unwrap();
                 assert!(frame < 100_000, "{name}: the session never ended");
             }
             let read = read_log::<Registry>(s.log_path()).unwrap();

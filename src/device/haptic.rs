@@ -51,10 +51,32 @@ pub enum ToLoop {
     },
     /// Drive the hand of an emulated device.
     Hand(HandDrive),
-    /// From now on, queue each connected tick's sample for the session's
-    /// LSL device stream (issue 34): pushed off this thread, by the
-    /// publisher's worker.
-    Publish(crate::lsl::SampleTap),
+    /// From now on, offer each connected tick to this sink, on the loop's
+    /// thread (whoever asked: the loop knows no reader).
+    Offer(Offer),
+}
+
+/// Whoever wants the loop's ticks as they happen: called on the loop's
+/// thread with each connected tick, so it must only queue (never block).
+pub trait SampleSink: Send + Sync {
+    /// A connected tick, its time never before the last's.
+    fn offer(&self, tick: &Tick);
+}
+
+/// A [`SampleSink`] handed to the loop ([`ToLoop::Offer`]).
+#[derive(Clone)]
+pub struct Offer(pub std::sync::Arc<dyn SampleSink>);
+
+impl std::fmt::Debug for Offer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Offer(..)")
+    }
+}
+
+impl PartialEq for Offer {
+    fn eq(&self, other: &Self) -> bool {
+        std::sync::Arc::ptr_eq(&self.0, &other.0)
+    }
 }
 
 /// Timing and link statistics of a loop run.
@@ -210,34 +232,15 @@ impl Drop for HapticLoop {
     }
 }
 
-/// Hands a tick to the session and, when publishing, its sample to the LSL
-/// stream (a connected tick only). Ticks' times never go back (`last_s`:
-/// the time of the last).
-fn emit(
-    outbox: &mut rtrb::Producer<Tick>,
-    lsl: Option<&crate::lsl::SampleTap>,
-    last_s: &mut f64,
-    mut tick: Tick,
-) {
+/// Hands a tick to the session and, when a sink asked, to it (a connected
+/// tick only). Ticks' times never go back (`last_s`: the time of the last).
+fn emit(outbox: &mut rtrb::Producer<Tick>, sink: Option<&Offer>, last_s: &mut f64, mut tick: Tick) {
     tick.now_s = tick.now_s.max(*last_s);
     *last_s = tick.now_s;
-    if let Some(tap) = lsl
+    if let Some(sink) = sink
         && tick.link == LinkState::Connected
     {
-        #[expect(
-            clippy::cast_possible_truncation,
-            reason = "the stream is float32, as LSL's float channels are"
-        )]
-        tap.push(
-            tick.now_s,
-            [
-                tick.x_m as f32,
-                tick.v_m_s as f32,
-                tick.force_n as f32,
-                tick.vibration as f32,
-                tick.device_tick.map_or(0.0, |t| t as f32),
-            ],
-        );
+        sink.0.offer(&tick);
     }
     let _ = outbox.push(tick);
 }
@@ -312,7 +315,7 @@ fn run(
         previous: None,
     };
     let mut deadline = Instant::now() + period;
-    let mut lsl: Option<crate::lsl::SampleTap> = None;
+    let mut sink: Option<Offer> = None;
     while !stop.load(Ordering::Relaxed) {
         spin_sleep::sleep_until(deadline);
         let woke = Instant::now();
@@ -362,13 +365,13 @@ fn run(
                     host_selected = true;
                 }
                 ToLoop::Hand(drive) => device.drive_hand(&drive),
-                ToLoop::Publish(tap) => lsl = Some(tap),
+                ToLoop::Offer(offer) => sink = Some(offer),
             }
         }
 
         if let Some(board) = device.on_board()
             && board.ticks(now, &reading, &mut |tick| {
-                emit(outbox, lsl.as_ref(), &mut last_s, tick);
+                emit(outbox, sink.as_ref(), &mut last_s, tick);
             })
         {
             continue;
@@ -410,7 +413,7 @@ fn run(
         device.send_force(now, force, vibration);
         emit(
             outbox,
-            lsl.as_ref(),
+            sink.as_ref(),
             &mut last_s,
             Tick {
                 button: reading.button,

@@ -38,7 +38,7 @@ pub use frames::FrameStats;
 pub use participant::{WORKSPACE_HALF_M, to_m, to_screen};
 
 use crate::protocol::engine::{Answer, Choice, Input};
-use crate::session::{DeviceChoice, LiveSession, Phase};
+use crate::session::{DeviceChoice, Feed, LiveSession, Phase};
 use builder::BuilderPanel;
 use results::ResultsPanel;
 use session::SessionPanel;
@@ -61,7 +61,7 @@ pub struct Launch {
     /// Start the session at once (`run --responder gui`).
     pub start: Option<AutoStart>,
     /// Signals that end the window (issue 31): a session open is ended as
-    /// [`LiveSession::interrupted`] says, then the window closes.
+    /// [`Feed::Signal`] says, then the window closes.
     pub interrupt: Option<crate::interrupt::Interrupt>,
     /// liblsl, loaded by `--lsl`: the setup's "Publish on LSL" starts
     /// checked (issue 34).
@@ -269,18 +269,19 @@ impl FrictionlabApp {
                 self.answer.clear();
                 self.session.new_session();
             }),
-            Command::Pause => self.with_live(LiveSession::pause),
-            Command::Resume => self.with_live(LiveSession::resume),
-            Command::Abort => self.with_live(LiveSession::abort),
+            Command::Pause => self.with_live(|l| l.feed(Feed::Pause)),
+            Command::Resume => self.with_live(|l| l.feed(Feed::Resume)),
+            Command::Abort => self.with_live(|l| l.feed(Feed::Abort)),
             Command::Close => {
                 self.live = None;
                 self.setup.forget_sessions();
                 self.session.new_session();
                 Ok(())
             }
-            Command::Continue => self.with_live(|l| l.input(Input::Continue)),
+            Command::Continue => self.with_live(|l| l.feed(Feed::Input(Input::Continue))),
             Command::Magnitude(text) => {
-                let r = self.with_live(|l| l.input(Input::Answer(Answer::Magnitude(text))));
+                let r =
+                    self.with_live(|l| l.feed(Feed::Input(Input::Answer(Answer::Magnitude(text)))));
                 if self
                     .live
                     .as_ref()
@@ -290,9 +291,11 @@ impl FrictionlabApp {
                 }
                 r
             }
-            Command::Paired(c) => self.with_live(|l| l.input(Input::Answer(Answer::Paired(c)))),
-            Command::Switch(i) => self.with_live(|l| l.input(Input::Switch(i))),
-            Command::Click => self.with_live(LiveSession::click),
+            Command::Paired(c) => {
+                self.with_live(|l| l.feed(Feed::Input(Input::Answer(Answer::Paired(c)))))
+            }
+            Command::Switch(i) => self.with_live(|l| l.feed(Feed::Input(Input::Switch(i)))),
+            Command::Click => self.with_live(|l| l.feed(Feed::Click)),
             Command::HandTarget(x) => {
                 if let Some(l) = &mut self.live {
                     l.set_hand_target(x);
@@ -328,7 +331,7 @@ impl FrictionlabApp {
             Command::SaveNote => match self.session.note_to_save() {
                 None => Ok(()),
                 Some(text) => {
-                    let r = self.with_live(|l| l.note(&text));
+                    let r = self.with_live(|l| l.feed(Feed::Note(text)));
                     if r.is_ok() {
                         self.session.note_saved();
                     }
@@ -420,7 +423,7 @@ impl eframe::App for FrictionlabApp {
             // Ended by a signal: the trial under way is logged as aborted,
             // then the window closes (the caller reports the signal).
             if let Some(live) = &mut self.live
-                && let Err(e) = live.interrupted(signal)
+                && let Err(e) = live.feed(Feed::Signal(signal))
             {
                 self.error = Some(format!("error: {e}"));
             }
@@ -428,7 +431,7 @@ impl eframe::App for FrictionlabApp {
             return;
         }
         if let Some(live) = &mut self.live {
-            if let Err(e) = live.advance(now) {
+            if let Err(e) = live.feed(Feed::Frame(now)) {
                 self.error = Some(format!("error: {e}"));
             }
             if matches!(live.phase(), Phase::Running | Phase::Paused) {
@@ -495,7 +498,7 @@ impl eframe::App for FrictionlabApp {
         // A broken standard error has nowhere left to be reported.
         let mut err = std::io::stderr().lock();
         if let Some(live) = &mut self.live
-            && let Err(e) = live.abort()
+            && let Err(e) = live.feed(Feed::Abort)
         {
             let _ = writeln!(err, "error: {e}");
         }

@@ -99,9 +99,9 @@ impl Port {
         while self.haptic.recv().is_some() {}
     }
 
-    /// Has the loop queue each connected tick's sample for LSL.
-    pub(super) fn publish(&mut self, tap: crate::lsl::SampleTap) {
-        self.haptic.send(ToLoop::Publish(tap));
+    /// Has the loop offer each connected tick to `sink` from now on.
+    pub(super) fn offer(&mut self, sink: crate::device::haptic::Offer) {
+        self.haptic.send(ToLoop::Offer(sink));
     }
 
     /// The instant the loop's ticks count time from.

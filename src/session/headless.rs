@@ -7,7 +7,7 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use super::{Phase, Responder, Session, SessionError, SessionRequest};
+use super::{Feed, Phase, Responder, Run, Session, SessionError, SessionRequest};
 use crate::interrupt::{Interrupt, Signal};
 use crate::kinds::{Header, Protocol, ReadLog};
 use crate::participant::SimParticipant;
@@ -108,27 +108,25 @@ pub fn run_simulated(
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<SessionOutcome, SessionError> {
     let planned = super::plan(dir, req, <SimParticipant as Responder>::LABEL)?;
-    let mut session = Session::from_planned(
+    let session = Session::from_planned(
         dir,
         planned,
         &super::DeviceChoice::Simulated,
         sim_participant,
     )?;
-    if let Some(lsl) = req.lsl {
-        session.publish(lsl)?;
-    }
-    drive(session, req.pace, stop, progress).map(|(outcome, _)| outcome)
+    let run = Run::new(session, req.lsl)?;
+    drive(run, req.pace, stop, progress).map(|(outcome, _)| outcome)
 }
 
 /// The signal `stop` holds, if any; ends `session`'s run for it.
 fn stopped<R: Responder>(
-    session: &mut Session<R>,
+    run: &mut Run<R>,
     stop: Option<&Interrupt>,
 ) -> Result<Option<Signal>, SessionError> {
     let Some(signal) = stop.and_then(Interrupt::signal) else {
         return Ok(None);
     };
-    session.interrupted(signal)?;
+    run.feed(Feed::Signal(signal))?;
     Ok(Some(signal))
 }
 
@@ -149,47 +147,44 @@ pub fn run_planned<R: Responder>(
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<SessionOutcome, SessionError> {
     let session = Session::from_planned(dir, planned, &super::DeviceChoice::Simulated, responder)?;
-    drive(session, pace, stop, progress).map(|(outcome, _)| outcome)
+    drive(Run::new(session, None)?, pace, stop, progress).map(|(outcome, _)| outcome)
 }
 
 /// Steps a session on the simulated device to its end, paced by `pace`;
 /// a signal in `stop` ends it. Returns its outcome and the session.
 fn drive<R: Responder>(
-    mut session: Session<R>,
+    mut run: Run<R>,
     pace: Option<f64>,
     stop: Option<&Interrupt>,
     progress: &mut dyn FnMut(usize, usize),
-) -> Result<(SessionOutcome, Session<R>), SessionError> {
+) -> Result<(SessionOutcome, Run<R>), SessionError> {
     let pacer = Pacer {
         pace,
         wall: Instant::now(),
-        virtual_start: session.now(),
+        virtual_start: run.now(),
     };
     // Published on LSL, virtual time is held to LSL's clock before every
-    // tick (`Session::step`, not every 64th tick here), so each event and
-    // sample is handled just after its timestamp.
-    let on_lsl = match (session.lsl_now(), pace) {
-        (Some(_), Some(pace)) => {
-            session.lsl_pace(pace);
-            true
-        }
-        _ => false,
-    };
+    // tick (not every 64th tick here), so each event and sample is
+    // handled just after its timestamp.
+    let on_lsl = pace.is_some_and(|pace| run.pace_on_lsl(pace));
     let (mut ticks, mut seen) = (0_u64, 0);
-    while session.phase() != Phase::Finished {
-        session.step()?;
-        report(&session, &mut seen, progress);
+    while run.phase() != Phase::Finished {
+        if on_lsl {
+            run.hold();
+        }
+        run.feed(Feed::Tick)?;
+        report(&run, &mut seen, progress);
         ticks += 1;
         if ticks.is_multiple_of(64) {
-            if let Some(signal) = stopped(&mut session, stop)? {
-                return Ok((session.outcome().interrupted_by(signal), session));
+            if let Some(signal) = stopped(&mut run, stop)? {
+                return Ok((run.outcome().interrupted_by(signal), run));
             }
             if !on_lsl {
-                pacer.wait(session.now());
+                pacer.wait(run.now());
             }
         }
     }
-    Ok((session.outcome(), session))
+    Ok((run.outcome(), run))
 }
 
 /// Runs the session of simulated participant `i` of `sim` (as
@@ -217,8 +212,8 @@ pub fn simulate_in_memory(sim: &Simulation<'_>, i: u32) -> Result<ReadLog, Sessi
     let (header, source) =
         super::open::new_session(&req, 1, i, <SimParticipant as Responder>::LABEL);
     let session = Session::in_memory(header, source, sim_participant)?;
-    let (_, session) = drive(session, None, None, &mut |_, _| {})?;
-    Ok(session.into_records())
+    let (_, run) = drive(Run::new(session, None)?, None, None, &mut |_, _| {})?;
+    Ok(run.into_session().into_records())
 }
 
 /// Runs (or resumes) one session on the device of `req` (a serial port; the
@@ -240,12 +235,12 @@ pub fn run_device<R: Responder>(
     stop: Option<&Interrupt>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<SessionOutcome, SessionError> {
-    let mut session = Session::begin(dir, req, responder)?;
+    let mut session = Run::begin(dir, req, responder)?;
     let wall = Instant::now();
 
     let mut seen = 0;
     loop {
-        session.poll_device()?;
+        session.feed(Feed::Poll)?;
         if let Some(signal) = stopped(&mut session, stop)? {
             return Ok(session.outcome().interrupted_by(signal));
         }
@@ -259,11 +254,11 @@ pub fn run_device<R: Responder>(
                 (None, Some(off_m)) => SessionError::OffTrack { off_m, timeout_s },
                 (None, None) => SessionError::NeverConnected { timeout_s },
             };
-            session.stop_device()?;
+            session.feed(Feed::StopDevice)?;
             return Err(error);
         }
         if session.lost_for_s().is_some_and(|s| s > timeout_s) {
-            session.stop_device()?;
+            session.feed(Feed::StopDevice)?;
             return Err(SessionError::Lost {
                 timeout_s,
                 completed: session.completed(),

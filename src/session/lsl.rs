@@ -1,39 +1,51 @@
-//! A session on the Lab Streaming Layer (issue 34): the session's events
-//! as markers, its device samples as the `Haptics` stream.
+//! Publishing a session on the Lab Streaming Layer: the session's events
+//! as markers, its device samples as the `Haptics` stream. A shell's part
+//! ([`super::run::Run`]): the session publishes nothing itself.
 //!
-//! The session calls in here where each event happens (its driver loop:
-//! a trial starts when the engine enters a trial, ends with its record; a
-//! stimulus is a render; an answer is an input handed to the engine), so
-//! a marker's timestamp is the event's session time on LSL's clock
+//! [`Publishing::on`] turns each [`Event`] the session reports into its
+//! marker, stamped with the event's session time on LSL's clock
 //! ([`Clock`]): the same number the trial record keeps as `lsl_start_s`
-//! and `lsl_end_s`. The shell says how session time maps to LSL's clock:
+//! and `lsl_end_s` (added where the record is written,
+//! [`Session::annotate_records`]). How session time maps to LSL's clock:
 //! a paced simulated device's virtual time runs at its pace from the
-//! session's start ([`Session::lsl_pace`]); the window re-anchors at each
-//! frame; a port's loop clock is the system's monotonic clock, which is
-//! liblsl's ([`Session::publish`] maps it once).
+//! session's start ([`Publishing::pace`]); the window re-anchors at each
+//! frame ([`Event::Frame`]); a port's loop clock is the system's monotonic
+//! clock, which is liblsl's ([`Publishing::start`] maps it once).
 //!
-//! # Streams first (issue 42)
+//! # Streams first
 //! Both streams are published before the session starts, and
 //! `--lsl-wait` waits for a reader on each before the first marker: with
-//! the simulated device at once ([`Session::publish`]); on a port at its
-//! first connected tick, which says who renders (before the session's log
-//! opens and its first input is handled). The device stream's first
-//! sample is at the session's start: the simulated device's state there
-//! (at rest), or a port's ticks queued while the session waited.
+//! the simulated device at once ([`Publishing::start`]); on a port at
+//! [`Event::Ready`], its first connected tick, which says who renders
+//! (before the session's log opens and its first input is handled). The
+//! device stream's first sample is at the session's start: the simulated
+//! device's state there (at rest), or a port's ticks queued while the
+//! session waited (its haptic loop offers them to the stream,
+//! [`Session::offer_samples`]).
+
+use std::sync::{Arc, Mutex, PoisonError};
 
 use serde_json::{Map, Value};
 
 use super::renders::How;
-use super::{Responder, Session, SessionError};
-use crate::kinds::{Action, Header, PlannedTrial, TrialRecord};
-use crate::lsl::{Clock, DeviceStream, Node, Publisher, Streaming};
+use super::{Event, Feed, Responder, Session, SessionError};
+use crate::device::haptic::{Offer, SampleSink, Tick};
+use crate::kinds::{Action, Header, LogLine, TrialRecord};
+use crate::lsl::{Clock, DeviceStream, Node, Publisher, SampleTap, Streaming};
 use crate::protocol::engine::{Answer, Input, RenderMode, Screen};
 use crate::time::Time;
 
-/// What a session publishing on LSL keeps.
-pub(super) struct Tap {
-    publisher: Publisher,
+/// What the record annotation shares with the publisher: LSL's clock and
+/// the trial under way's start on it.
+struct Stamps {
     clock: Clock,
+    trial_start: Option<f64>,
+}
+
+/// A session published on LSL: see the module docs.
+pub struct Publishing {
+    publisher: Publisher,
+    stamps: Arc<Mutex<Stamps>>,
     /// Re-anchored at each frame of the window (the simulated device).
     per_frame: bool,
     stream_name: String,
@@ -41,15 +53,21 @@ pub(super) struct Tap {
     /// The render on, if any (its number).
     stimulus: Option<u32>,
     last_block: Option<usize>,
-    in_trial: bool,
-    /// LSL time of the trial under way's start.
-    trial_start: Option<f64>,
     /// A `device_lost` was sent, and no `device_back` since.
     lost: bool,
     /// How long to wait for readers when the streams open, s.
     wait_s: f64,
 }
 
+/// A port's ticks, offered by its haptic loop, into the device stream.
+struct LoopSamples(SampleTap);
+
+impl SampleSink for LoopSamples {
+    fn offer(&self, tick: &Tick) {
+        self.0
+            .push(tick.now_s, sample_values(&tick.sample(), tick.device_tick));
+    }
+}
 /// A marker's fields: `event` first.
 fn fields(event: &str) -> Map<String, Value> {
     let mut m = Map::new();
@@ -87,34 +105,6 @@ fn conditions<T: serde::Serialize>(spec: &T) -> Value {
     }
 }
 
-impl Tap {
-    /// Whether both streams are open (their readers waited for).
-    pub(super) fn is_open(&self) -> bool {
-        self.publisher.is_open()
-    }
-
-    fn mark(&mut self, t: Time, event: &str, extra: impl FnOnce(&mut Map<String, Value>)) {
-        let mut m = fields(event);
-        extra(&mut m);
-        self.publisher.marker(self.clock.at(t), m);
-    }
-
-    fn trial_of(m: &mut Map<String, Value>, trial: usize) {
-        m.insert("trial".into(), trial.into());
-    }
-}
-
-/// The device was lost (`true`, once it had answered) or is back: a
-/// `device_lost` or `device_back` marker at session time `t`, once each.
-pub(super) fn device_lost(tap: Option<&mut Tap>, t: Time, lost: bool) {
-    if let Some(tap) = tap
-        && tap.lost != lost
-    {
-        tap.lost = lost;
-        tap.mark(t, if lost { "device_lost" } else { "device_back" }, |_| {});
-    }
-}
-
 /// A device sample as the stream's channels: position, velocity, force,
 /// vibration, and the device's tick (on board).
 fn sample_values(s: &crate::device::DeviceSample, tick: Option<u32>) -> [f32; 5] {
@@ -132,7 +122,7 @@ fn sample_values(s: &crate::device::DeviceSample, tick: Option<u32>) -> [f32; 5]
 }
 
 /// The device stream of a session whose device steps as `how`.
-fn device_stream(tap: &Tap, how: How, device: &str) -> DeviceStream {
+fn device_stream(tap: &Publishing, how: How, device: &str) -> DeviceStream {
     let mode = match how.mode {
         RenderMode::Simulated => "simulated",
         RenderMode::HostLoop => "host_loop",
@@ -184,16 +174,21 @@ pub fn source_id(h: &Header) -> String {
     )
 }
 
-impl<R: Responder> Session<R> {
-    /// Publishes this session on LSL with `lsl`. Call before the session
-    /// is first fed. With the simulated device both streams open now
-    /// ([`Session::lsl_open`]); on a port at its first connected tick.
+impl Publishing {
+    /// Publishes `session` on LSL with `streaming`, before it is first
+    /// fed: the session waits for this shell from now on
+    /// ([`Session::wait_for_shell`]). With the simulated device both
+    /// streams open now ([`Publishing::open`]); on a port at
+    /// [`Event::Ready`].
     ///
     /// # Errors
     /// liblsl made no outlet, or its worker could not start.
-    pub fn publish(&mut self, streaming: &Streaming) -> Result<(), SessionError> {
+    pub fn start<R: Responder>(
+        streaming: &Streaming,
+        session: &mut Session<R>,
+    ) -> Result<Self, SessionError> {
         let lsl = &streaming.lib;
-        let header = self.log.header().clone();
+        let header = session.header().clone();
         let (name, source) = (stream_name(&header), source_id(&header));
         let desc = vec![
             Node::value("protocol", header.protocol_id.as_str()),
@@ -211,13 +206,13 @@ impl<R: Responder> Session<R> {
         let publisher = Publisher::start(lsl, &name, &format!("{source}/markers"), &desc)
             .map_err(|e| SessionError::Lsl(e.to_string()))?;
         let now = lsl.local_clock();
-        // A port's ticks count from the loop's origin (session time
-        // `start_t`); the simulated device's time is anchored when its
+        // A port's ticks count from the loop's origin (session time at the
+        // start); the simulated device's time is anchored when its
         // streams open.
-        let (clock, per_frame) = match self.device.origin() {
+        let (clock, per_frame) = match session.loop_origin() {
             Some(origin) => (
                 Clock {
-                    t0: self.start_t,
+                    t0: session.now(),
                     lsl0: now - origin.elapsed().as_secs_f64(),
                     pace: 1.0,
                 },
@@ -225,36 +220,57 @@ impl<R: Responder> Session<R> {
             ),
             None => (
                 Clock {
-                    t0: self.t,
+                    t0: session.now(),
                     lsl0: now,
                     pace: 1.0,
                 },
                 true,
             ),
         };
-        self.lsl = Some(Box::new(Tap {
-            publisher,
+        let stamps = Arc::new(Mutex::new(Stamps {
             clock,
+            trial_start: None,
+        }));
+        let mut publishing = Publishing {
+            publisher,
+            stamps: Arc::clone(&stamps),
             per_frame,
             stream_name: name,
             source_id: source,
             stimulus: None,
             last_block: None,
-            in_trial: false,
-            trial_start: None,
             lost: false,
             wait_s: streaming.wait_s,
+        };
+        session.wait_for_shell();
+        session.annotate_records(Box::new(move |record: &mut TrialRecord| {
+            let mut stamps = stamps.lock().unwrap_or_else(PoisonError::into_inner);
+            let end = stamps.clock.at(record.ended_s);
+            let start = stamps
+                .trial_start
+                .take()
+                .unwrap_or_else(|| stamps.clock.at(record.started_s));
+            record.lsl_start_s = Some(start);
+            record.lsl_end_s = Some(end);
         }));
-        if self.device.is_sim() {
-            // It ticks at the rate of the model it renders: the plan's
-            // (its fastest model's) is the stream's nominal rate.
-            let how = How {
-                rate_hz: self.loop_rate_hz,
-                ..self.row_render.1
-            };
-            self.lsl_open(how)?;
+        if let Some(how) = session.sim_stepping() {
+            publishing.open(session, how)?;
         }
-        Ok(())
+        Ok(publishing)
+    }
+
+    fn clock(&self) -> Clock {
+        self.stamps
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clock
+    }
+
+    fn set_clock(&self, clock: Clock) {
+        self.stamps
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clock = clock;
     }
 
     /// Opens both streams (module docs): publishes the device stream of a
@@ -262,34 +278,36 @@ impl<R: Responder> Session<R> {
     /// `--lsl-wait` in all), then sends `session_start` (or
     /// `session_resume`). The simulated device's clock is anchored there,
     /// and its state at that moment is the device stream's first sample;
-    /// a port's loop queues its ticks' samples from before the wait.
-    pub(super) fn lsl_open(&mut self, how: How) -> Result<(), SessionError> {
-        let header = self.log.header().clone();
-        let label = self.device_label.clone();
-        let Some(tap) = self.lsl.as_deref_mut() else {
-            return Ok(());
-        };
-        if tap.publisher.is_open() {
+    /// a port's loop offers its ticks' samples from before the wait.
+    fn open<R: Responder>(
+        &mut self,
+        session: &mut Session<R>,
+        how: How,
+    ) -> Result<(), SessionError> {
+        if self.publisher.is_open() {
             return Ok(());
         }
-        let stream = device_stream(tap, how, &label);
-        let published = tap.publisher.device(&stream);
-        if published && let super::device::Device::Port(port) = &mut self.device {
-            port.publish(tap.publisher.sample_tap(tap.clock.lsl0));
+        let stream = device_stream(self, how, session.device_label());
+        if self.publisher.device(&stream) && !session.is_sim() {
+            let tap = self.publisher.sample_tap(self.clock().lsl0);
+            session.offer_samples(Offer(Arc::new(LoopSamples(tap))));
         }
-        tap.publisher
-            .open(tap.wait_s)
+        self.publisher
+            .open(self.wait_s)
             .map_err(|e| SessionError::Lsl(e.to_string()))?;
-        let now = tap.publisher.now();
-        if self.device.is_sim() {
-            tap.clock = Clock {
-                t0: self.t,
+        let now = self.publisher.now();
+        if session.is_sim() {
+            let pace = self.clock().pace;
+            self.set_clock(Clock {
+                t0: session.now(),
                 lsl0: now,
-                pace: tap.clock.pace,
-            };
-            tap.publisher.sample(now, sample_values(&self.sample, None));
+                pace,
+            });
+            self.publisher
+                .sample(now, sample_values(&session.sample(), None));
         }
-        let mut m = fields(match self.resumed_at {
+        let header = session.header();
+        let mut m = fields(match session.resumed_at() {
             Some(_) => "session_resume",
             None => "session_start",
         });
@@ -297,94 +315,150 @@ impl<R: Responder> Session<R> {
         m.insert("protocol".into(), header.protocol_id.clone().into());
         m.insert("participant".into(), header.participant.clone().into());
         m.insert("planned_trials".into(), header.planned_trials.into());
-        if let Some(at) = self.resumed_at {
+        if let Some(at) = session.resumed_at() {
             m.insert("at_trial".into(), at.into());
         }
-        tap.publisher.marker(now, m);
+        self.publisher.marker(now, m);
         Ok(())
     }
 
     /// A headless shell paces the simulated device: session time runs
     /// `pace` times real time from the session's start on LSL's clock
     /// (where its streams opened).
-    pub fn lsl_pace(&mut self, pace: f64) {
-        if let Some(tap) = &mut self.lsl {
-            tap.clock.pace = pace;
-            tap.per_frame = false;
-        }
+    pub fn pace(&mut self, pace: f64) {
+        let clock = self.clock();
+        self.set_clock(Clock { pace, ..clock });
+        self.per_frame = false;
     }
 
-    /// Holds a paced simulated session (after [`Session::lsl_pace`]) until
-    /// LSL's clock reaches its next tick, so each tick's sample (and the
-    /// events settled right after it) are handled at, or just after,
-    /// their timestamps. Returns at once when not so paced.
-    pub(super) fn lsl_hold(&self) {
-        let (Some(tap), super::device::Device::Sim { dt, .. }) = (&self.lsl, &self.device) else {
-            return;
-        };
-        if tap.per_frame {
+    /// Holds a paced simulated session (after [`Publishing::pace`]) until
+    /// LSL's clock reaches its next tick ([`Session::poll_timeout`]).
+    /// Returns at once when not so paced.
+    pub fn hold<R: Responder>(&self, session: &Session<R>) {
+        if self.per_frame || !session.is_sim() {
             return;
         }
-        let due = tap.clock.at(self.t + *dt);
-        let rest = due - tap.publisher.now();
+        let Some(next) = session.poll_timeout() else {
+            return;
+        };
+        let rest = self.clock().at(next) - self.publisher.now();
         if rest > 0.0 {
             std::thread::sleep(std::time::Duration::from_secs_f64(rest));
         }
     }
 
-    /// After a record was written (flushed and synced, the write rule): a
-    /// paced simulated session's time stood still meanwhile, so its clock
-    /// goes on from now: the next trial starts when it really does, and
-    /// the device stream has a gap as long as the write.
-    pub(super) fn lsl_written(&mut self) {
-        if let (Some(tap), true) = (&mut self.lsl, self.device.is_sim())
-            && !tap.per_frame
-        {
-            tap.clock = Clock {
-                t0: self.t,
-                lsl0: tap.publisher.now(),
-                pace: tap.clock.pace,
-            };
-        }
-    }
-
-    /// LSL's clock now, when publishing.
+    /// LSL's clock now.
     #[must_use]
-    pub fn lsl_now(&self) -> Option<f64> {
-        self.lsl.as_ref().map(|tap| tap.publisher.now())
+    pub fn now(&self) -> f64 {
+        self.publisher.now()
     }
 
-    /// The window's frame reaches session time `end` now: the simulated
-    /// device's samples of the frame are stamped back from now.
-    pub(super) fn lsl_frame(&mut self, end: Time) {
-        if let Some(tap) = &mut self.lsl
-            && tap.per_frame
-        {
-            tap.clock = Clock {
-                t0: end,
-                lsl0: tap.publisher.now(),
-                pace: 1.0,
-            };
-        }
+    fn mark(&mut self, t: Time, event: &str, extra: impl FnOnce(&mut Map<String, Value>)) {
+        let mut m = fields(event);
+        extra(&mut m);
+        let at = self.clock().at(t);
+        self.publisher.marker(at, m);
     }
 
-    /// A simulated device's sample (after `observe` set it): queued for
-    /// the device stream (a port's loop queues its own).
-    pub(super) fn lsl_sample(&mut self) {
-        let Some(tap) = &mut self.lsl else { return };
-        if !self.device.is_sim() {
-            return;
+    /// Publishes what `event` says (a marker, a sample, a clock anchor),
+    /// and answers the session's waits: [`Event::Ready`] opens the streams
+    /// and says [`Feed::Go`].
+    ///
+    /// # Errors
+    /// The streams could not open.
+    pub fn on<R: Responder>(
+        &mut self,
+        event: Event,
+        session: &mut Session<R>,
+    ) -> Result<(), SessionError> {
+        match event {
+            Event::Ready { how } => {
+                self.open(session, how)?;
+                session.handle(Feed::Go)?;
+            }
+            Event::Frame { end } => {
+                if self.per_frame {
+                    self.set_clock(Clock {
+                        t0: end,
+                        lsl0: self.publisher.now(),
+                        pace: 1.0,
+                    });
+                }
+            }
+            Event::Sample { t, sample } => {
+                let at = self.clock().at(t);
+                self.publisher.sample(at, sample_values(&sample, None));
+            }
+            Event::Input { t, trial, input } => self.input(t, trial, &input),
+            Event::TrialStarted { t, trial } => {
+                if self.last_block != Some(trial.block_index) {
+                    self.last_block = Some(trial.block_index);
+                    self.mark(t, "block_start", |m| {
+                        m.insert("block".into(), trial.block.clone().into());
+                        m.insert("block_index".into(), trial.block_index.into());
+                    });
+                }
+                let start = self.clock().at(t);
+                self.stamps
+                    .lock()
+                    .unwrap_or_else(PoisonError::into_inner)
+                    .trial_start = Some(start);
+                let kind = session.header().protocol.kind();
+                self.mark(t, "trial_start", |m| {
+                    m.insert("trial".into(), trial.index.into());
+                    m.insert("kind".into(), kind.into());
+                    m.insert("block".into(), trial.block.clone().into());
+                    m.insert("practice".into(), trial.practice.into());
+                    m.insert("repetition".into(), trial.repetition.into());
+                    m.insert("conditions".into(), conditions(&trial.spec));
+                });
+            }
+            Event::Action {
+                t,
+                trial,
+                action,
+                render,
+            } => self.action(t, trial, &action, render),
+            Event::Written { t, record } => self.written(t, &record, session),
+            Event::DeviceLost { t } | Event::DeviceBack { t } => {
+                let lost = matches!(event, Event::DeviceLost { .. });
+                if self.lost != lost {
+                    self.lost = lost;
+                    self.mark(t, if lost { "device_lost" } else { "device_back" }, |_| {});
+                }
+            }
+            Event::Paused { t } => self.mark(t, "pause", |_| {}),
+            Event::Resumed { t } => self.mark(t, "resume", |_| {}),
+            Event::Note { t, text } => self.mark(t, "note", |m| {
+                m.insert("text".into(), text.into());
+            }),
+            Event::Finished {
+                t,
+                completed,
+                aborted,
+            } => self.mark(t, "session_end", |m| {
+                m.insert("completed".into(), completed.into());
+                m.insert("aborted".into(), aborted.into());
+            }),
+            Event::Stopped { t, reason, signal } => self.mark(t, "session_stop", |m| {
+                m.insert("reason".into(), reason.into());
+                if let Some(signal) = signal {
+                    m.insert("signal".into(), signal.into());
+                }
+            }),
         }
-        let at = tap.clock.at(self.t);
-        tap.publisher
-            .sample(at, sample_values(&self.sample, self.marks.device_tick));
+        Ok(())
+    }
+
+    /// Ends publishing: pushes what is queued; the log line that records
+    /// what was published.
+    #[must_use]
+    pub fn finish(self) -> Vec<LogLine> {
+        vec![LogLine::Lsl(self.publisher.finish())]
     }
 
     /// An input about to reach the engine.
-    pub(super) fn lsl_input(&mut self, input: &Input) {
-        let t = self.t;
-        let trial = self.engine.in_trial().then(|| self.engine.trial_index());
-        let Some(tap) = &mut self.lsl else { return };
+    fn input(&mut self, t: Time, trial: Option<usize>, input: &Input) {
         let (event, extra): (&str, Option<(&str, Value)>) = match input {
             Input::Answer(Answer::Magnitude(text)) => {
                 ("answer", Some(("answer", text.clone().into())))
@@ -398,9 +472,9 @@ impl<R: Responder> Session<R> {
             Input::Continue => ("continue", None),
             Input::Start | Input::Recorded | Input::Abort { .. } => return,
         };
-        tap.mark(t, event, |m| {
+        self.mark(t, event, |m| {
             if let Some(trial) = trial {
-                Tap::trial_of(m, trial);
+                m.insert("trial".into(), trial.into());
             }
             if let Some((k, v)) = extra {
                 m.insert(k.into(), v);
@@ -408,80 +482,45 @@ impl<R: Responder> Session<R> {
         });
     }
 
-    /// After the engine took an input or a timeout: a trial that started
-    /// (and the block it starts, if new).
-    pub(super) fn lsl_after_engine(&mut self) {
-        let now_in = self.engine.in_trial();
-        let t = self.t;
-        let kind = self.engine.protocol().kind();
-        let trial: Option<&PlannedTrial> = self.engine.trial();
-        let Some(tap) = &mut self.lsl else { return };
-        let started = now_in && !tap.in_trial;
-        tap.in_trial = now_in;
-        let Some(trial) = trial.filter(|_| started) else {
-            return;
-        };
-        if tap.last_block != Some(trial.block_index) {
-            tap.last_block = Some(trial.block_index);
-            tap.mark(t, "block_start", |m| {
-                m.insert("block".into(), trial.block.clone().into());
-                m.insert("block_index".into(), trial.block_index.into());
-            });
-        }
-        tap.trial_start = Some(tap.clock.at(t));
-        let conditions = conditions(&trial.spec);
-        tap.mark(t, "trial_start", |m| {
-            Tap::trial_of(m, trial.index);
-            m.insert("kind".into(), kind.into());
-            m.insert("block".into(), trial.block.clone().into());
-            m.insert("practice".into(), trial.practice.into());
-            m.insert("repetition".into(), trial.repetition.into());
-            m.insert("conditions".into(), conditions);
-        });
-    }
-
-    /// An action the session carries out (`render`: the render number a
+    /// An action the session carried out (`render`: the render number a
     /// `Render` was given).
-    pub(super) fn lsl_action(&mut self, action: &Action, render: Option<u32>) {
-        let t = self.t;
-        let trial = self.engine.trial().map(|p| p.index);
-        let Some(tap) = &mut self.lsl else { return };
+    fn action(&mut self, t: Time, trial: Option<usize>, action: &Action, render: Option<u32>) {
         let with_trial = |m: &mut Map<String, Value>| {
             if let Some(trial) = trial {
-                Tap::trial_of(m, trial);
+                m.insert("trial".into(), trial.into());
             }
         };
         match action {
             Action::Render(model) => {
-                if let Some(off) = tap.stimulus.take() {
-                    tap.mark(t, "stimulus_off", |m| {
+                if let Some(off) = self.stimulus.take() {
+                    self.mark(t, "stimulus_off", |m| {
                         with_trial(m);
                         m.insert("render".into(), off.into());
                     });
                 }
                 if let (Some(model), Some(render)) = (model, render) {
-                    tap.stimulus = Some(render);
-                    tap.mark(t, "stimulus_on", |m| {
+                    self.stimulus = Some(render);
+                    self.mark(t, "stimulus_on", |m| {
                         with_trial(m);
                         m.insert("render".into(), render.into());
                         m.insert("model".into(), model.name().into());
                     });
                 }
             }
-            Action::Show(Screen::Paired { active, .. }) => tap.mark(t, "interval", |m| {
+            Action::Show(Screen::Paired { active, .. }) => self.mark(t, "interval", |m| {
                 with_trial(m);
                 m.insert("active".into(), (*active).into());
             }),
-            Action::Show(Screen::Break { until }) => tap.mark(t, "break", |m| {
+            Action::Show(Screen::Break { until }) => self.mark(t, "break", |m| {
                 m.insert("duration_s".into(), (*until - t).secs().into());
             }),
-            Action::Show(Screen::Instructions(_)) => tap.mark(t, "instructions", |_| {}),
-            Action::Show(Screen::Reference { .. }) => tap.mark(t, "reference", |_| {}),
-            Action::Prompt(text) => tap.mark(t, "prompt", |m| {
+            Action::Show(Screen::Instructions(_)) => self.mark(t, "instructions", |_| {}),
+            Action::Show(Screen::Reference { .. }) => self.mark(t, "reference", |_| {}),
+            Action::Prompt(text) => self.mark(t, "prompt", |m| {
                 with_trial(m);
                 m.insert("text".into(), text.clone().into());
             }),
-            Action::Refused(why) => tap.mark(t, "refused", |m| {
+            Action::Refused(why) => self.mark(t, "refused", |m| {
                 with_trial(m);
                 m.insert("why".into(), why.clone().into());
             }),
@@ -489,19 +528,17 @@ impl<R: Responder> Session<R> {
         }
     }
 
-    /// A trial's record: its `trial_end` marker, and its LSL times.
-    pub(super) fn lsl_record(&mut self, record: &mut TrialRecord) {
-        let Some(tap) = &mut self.lsl else { return };
-        let end = tap.clock.at(record.ended_s);
-        let start = tap
-            .trial_start
-            .take()
-            .unwrap_or_else(|| tap.clock.at(record.started_s));
-        record.lsl_start_s = Some(start);
-        record.lsl_end_s = Some(end);
-        tap.in_trial = false;
+    /// A trial's record was written at session time `t`: its `trial_end`
+    /// marker at its LSL end. A paced simulated session's time stood still
+    /// during the write (flushed and synced, the write rule), so its clock
+    /// goes on from now: the next trial starts when it really does, and
+    /// the device stream has a gap as long as the write.
+    fn written<R: Responder>(&mut self, t: Time, record: &TrialRecord, session: &Session<R>) {
+        let end = record
+            .lsl_end_s
+            .unwrap_or_else(|| self.clock().at(record.ended_s));
         let mut m = fields("trial_end");
-        Tap::trial_of(&mut m, record.trial);
+        m.insert("trial".into(), record.trial.into());
         m.insert("status".into(), record.status.as_str().into());
         if let Some(reason) = &record.abort_reason {
             m.insert("reason".into(), reason.clone().into());
@@ -509,28 +546,14 @@ impl<R: Responder> Session<R> {
         if record.requeued {
             m.insert("requeued".into(), true.into());
         }
-        tap.publisher.marker(end, m);
-    }
-
-    /// A marker for something the session does outside the engine
-    /// (pause, device lost, a note, the end).
-    pub(super) fn lsl_event(&mut self, event: &str, extra: impl FnOnce(&mut Map<String, Value>)) {
-        let t = self.t;
-        if let Some(tap) = &mut self.lsl {
-            tap.mark(t, event, extra);
+        self.publisher.marker(end, m);
+        if session.is_sim() && !self.per_frame {
+            let pace = self.clock().pace;
+            self.set_clock(Clock {
+                t0: t,
+                lsl0: self.publisher.now(),
+                pace,
+            });
         }
-    }
-
-    /// Ends publishing: pushes what is queued and, if the log is open,
-    /// records what was published.
-    pub(super) fn lsl_close(&mut self) -> Result<(), crate::results::ResultsError> {
-        let Some(tap) = self.lsl.take() else {
-            return Ok(());
-        };
-        let stats = tap.publisher.finish();
-        if let Some(open) = self.log.opened() {
-            open.log.append(&crate::kinds::LogLine::Lsl(stats))?;
-        }
-        Ok(())
     }
 }

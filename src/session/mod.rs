@@ -4,13 +4,24 @@
 //! A [`Session`] owns the engine, the pending inputs, the open log (with its
 //! CSV and streams), the [`Responder`] (a simulated participant, or a
 //! [`Person`] at the window) and the device (the simulated apparatus, or the
-//! haptic loop on a serial port). The shells only feed it time and read its
-//! outputs:
-//! - headless runs ([`headless`]): [`Session::step`] once per tick of the
-//!   simulated device, in virtual time; or [`Session::poll_device`] every
-//!   millisecond on a port;
-//! - the window: [`Session::advance`] once per frame with the wall clock,
-//!   plus the person's inputs ([`Session::input`], [`Session::click`]).
+//! haptic loop on a serial port). It reads no clock, never sleeps and
+//! publishes nothing: it is a state machine fed from outside, in the manner
+//! of quinn-proto's `Connection`:
+//! - [`Session::handle`] takes each [`Feed`]: a tick of the simulated
+//!   device, a poll of a port's loop, a window frame, an input, pause,
+//!   resume, abort, a signal, a note;
+//! - [`Session::poll_event`] hands out what happened ([`Event`]: inputs
+//!   taken, actions carried out, trials started, records written, the
+//!   device lost and back, the end), each with its session time;
+//! - [`Session::poll_timeout`] says when it next wants feeding.
+//!
+//! The shells ([`run::Run`] under the headless runners and the window)
+//! feed it: headless runs a [`Feed::Tick`] per tick of the simulated
+//! device in virtual time (paced by the shell if asked), or a
+//! [`Feed::Poll`] every millisecond on a port; the window a
+//! [`Feed::Frame`] per frame plus the person's inputs. Pacing, sleeping
+//! and publishing on LSL ([`lsl`]) live in the shells, which read the
+//! events.
 //!
 //! # Order of work, each time the session is fed
 //! 1. Device samples: each sample is recorded in the trial's stream (while
@@ -26,10 +37,15 @@
 //!    tick (its exploration is not shortened by the write, and its
 //!    `trial_start` on LSL is when its stimulus is sent).
 //!
-//! # Lab Streaming Layer
-//! With [`Session::publish`] ([`lsl`]), each event is also a marker,
-//! stamped with its session time on LSL's clock, and each device sample
-//! goes to the device stream (a port's from its haptic loop's thread).
+//! # A shell that adds to the log
+//! A shell that publishes ([`lsl`]) asks the session to wait for it
+//! ([`Session::wait_for_shell`]): on a port the session starts only at
+//! [`Feed::Go`], after [`Event::Ready`] (the streams open first); at the
+//! run's end it writes its last line only at [`Feed::Close`], which brings
+//! the shell's own lines; and the simulated device's samples come as
+//! [`Event::Sample`]. What the shell adds to a trial's record (its LSL
+//! times) it adds where the record is written
+//! ([`Session::annotate_records`]).
 //!
 //! # One session clock, in whole ticks (issue 42)
 //! Session time `t` ([`Time`], whole nanoseconds) starts at 0 for a new
@@ -66,6 +82,7 @@
 //! behind. Notes typed before then wait for the log.
 
 pub mod device;
+pub mod event;
 pub mod feel;
 pub mod headless;
 pub mod lsl;
@@ -73,12 +90,14 @@ pub mod open;
 pub mod record;
 mod renders;
 pub mod responder;
+pub mod run;
 pub mod view;
 
 use std::collections::VecDeque;
 use std::path::PathBuf;
 
 pub use device::{DeviceStatus, HAND_EVERY_S, percentile};
+pub use event::{Event, Feed};
 pub use feel::Feel;
 pub use headless::{
     SessionOutcome, Simulation, participant_seed, run_device, run_planned, run_simulated, sim_id,
@@ -87,26 +106,25 @@ pub use headless::{
 use open::Log;
 pub use open::{DeviceChoice, OpenLog, Planned, SessionRequest, plan};
 pub use record::{RowMarks, StreamRecorder};
+pub use renders::How;
 pub use responder::{
     MOUSE_HAND_DAMPING_N_S_M, MOUSE_HAND_MASS_KG, MOUSE_HAND_STIFFNESS_N_M, Person, Reaction,
     Responder,
 };
+pub use run::{LiveSession, Run};
 pub use view::{Phase, Progress, TRACE_EVERY_S, TRACE_LENGTH_S, TracePoint, View};
 
 use crate::device::DeviceSample;
 use crate::device::LinkState;
 use crate::friction::ModelParams;
-use crate::kinds::{Action, Engine, Header, LogLine, ReadLog, Registry};
+use crate::kinds::{Action, Engine, Header, LogLine, ReadLog, Registry, TrialRecord};
 use crate::protocol::engine::TrialSource;
 use crate::protocol::engine::{Input, RenderMode};
 use crate::results::{ResultsDir, ResultsError};
 use crate::time::Time;
 use device::Device;
-use renders::{How, Renders};
+use renders::Renders;
 use view::Trace;
-
-/// The session a person runs from the window.
-pub type LiveSession = Session<Person>;
 
 /// The abort reason of a trial ended by a signal (issue 31).
 pub const INTERRUPTED: &str = "interrupted";
@@ -197,6 +215,23 @@ enum Pending {
     Timeout,
 }
 
+/// Whether the session waits for its shell ([`Session::wait_for_shell`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Gate {
+    /// It does not.
+    Open,
+    /// It does (at the start on a port, at the end, and for the simulated
+    /// device's samples): no [`Event::Ready`] yet.
+    Waiting,
+    /// [`Event::Ready`] went out; ticks are dropped until [`Feed::Go`].
+    Asked,
+    /// The shell said go (or the simulated device needs no start).
+    Went,
+}
+
+/// What a shell adds to each trial's record where it is written.
+pub type Annotate = Box<dyn FnMut(&mut TrialRecord) + Send>;
+
 /// A session being run: see the module docs.
 pub struct Session<R: Responder> {
     engine: Engine,
@@ -240,13 +275,29 @@ pub struct Session<R: Responder> {
     /// Since when the hand has been on the track, waiting to start.
     on_track_since: Option<Time>,
     sim_selected: bool,
-    /// Publishing on the Lab Streaming Layer ([`lsl`]).
-    lsl: Option<Box<lsl::Tap>>,
+    /// What happened and no shell has polled yet (`None`: nobody asked,
+    /// [`Session::with_events`]).
+    events: Option<VecDeque<Event>>,
+    /// Whether (and where) the session waits for its shell.
+    gate: Gate,
+    /// The log's last lines, waiting for the shell's ([`Feed::Close`]).
+    closing: Option<Closing>,
+    /// The trial the engine was in after its last input, if any.
+    trial_seen: Option<usize>,
+    annotate: Option<Annotate>,
     /// A port's ticks that came while a record was written wait to be
     /// read before the next trial starts ([`Session::poll_device`]).
     catching_up: bool,
     /// The plan's loop rate (its fastest model's), Hz.
     loop_rate_hz: f64,
+}
+
+/// The log's last lines, once the shell has added its own.
+enum Closing {
+    /// The session ended: its `end` line.
+    End,
+    /// The run stopped: this line, if any (`interrupted`).
+    Stop(Option<Box<LogLine>>),
 }
 
 impl<R: Responder> Session<R> {
@@ -264,11 +315,7 @@ impl<R: Responder> Session<R> {
         responder: impl FnOnce(&Header) -> R,
     ) -> Result<Self, SessionError> {
         let planned = open::plan(dir, req, R::LABEL)?;
-        let mut session = Session::from_planned(dir, planned, req.device, responder)?;
-        if let Some(lsl) = req.lsl {
-            session.publish(lsl)?;
-        }
-        Ok(session)
+        Session::from_planned(dir, planned, req.device, responder)
     }
 
     /// Starts a session already planned ([`open::plan`], perhaps with
@@ -410,7 +457,11 @@ impl<R: Responder> Session<R> {
             device_problem: None,
             sim_selected: false,
             row_render: (0, how),
-            lsl: None,
+            events: None,
+            gate: Gate::Open,
+            closing: None,
+            trial_seen: None,
+            annotate: None,
             catching_up: false,
             loop_rate_hz: rate_hz,
         })
@@ -423,19 +474,184 @@ impl<R: Responder> Session<R> {
         self
     }
 
-    /// One tick of the simulated device, in virtual time: the pending
-    /// inputs settle, then the hand and device advance by the model's step.
-    /// Does nothing on a port (see [`Session::poll_device`]).
+    /// Keeps what happens for [`Session::poll_event`] (a session nobody
+    /// polls keeps nothing).
+    #[must_use]
+    pub fn with_events(mut self) -> Self {
+        self.events.get_or_insert_with(VecDeque::new);
+        self
+    }
+
+    /// Has the session wait for its shell (module docs): on a port it
+    /// starts at [`Feed::Go`] after [`Event::Ready`]; at the run's end its
+    /// last log line waits for [`Feed::Close`]; the simulated device's
+    /// samples come as [`Event::Sample`]. Keeps events.
+    pub fn wait_for_shell(&mut self) {
+        self.events.get_or_insert_with(VecDeque::new);
+        self.gate = if self.device.is_sim() {
+            Gate::Went
+        } else {
+            Gate::Waiting
+        };
+    }
+
+    /// Has `annotate` add the shell's part to each trial's record just
+    /// before it is written.
+    pub fn annotate_records(&mut self, annotate: Annotate) {
+        self.annotate = Some(annotate);
+    }
+
+    /// Has a port's haptic loop offer each connected tick to `sink`, on
+    /// its thread. Nothing with the simulated device (see
+    /// [`Event::Sample`]).
+    pub fn offer_samples(&mut self, sink: crate::device::haptic::Offer) {
+        if let Device::Port(port) = &mut self.device {
+            port.offer(sink);
+        }
+    }
+
+    /// The next thing that happened, oldest first (with
+    /// [`Session::with_events`]).
+    pub fn poll_event(&mut self) -> Option<Event> {
+        self.events.as_mut()?.pop_front()
+    }
+
+    /// The session time at which the session next wants feeding: the
+    /// simulated device's next tick while running, else the engine's next
+    /// deadline (a port's ticks come from its loop).
+    #[must_use]
+    pub fn poll_timeout(&self) -> Option<Time> {
+        match &self.device {
+            Device::Sim { dt, .. } if self.phase == Phase::Running => Some(self.t + *dt),
+            _ => self.due,
+        }
+    }
+
+    /// The instant a port's loop counts its ticks' time from (`None` for
+    /// the simulated device).
+    #[must_use]
+    pub fn loop_origin(&self) -> Option<std::time::Instant> {
+        self.device.origin()
+    }
+
+    /// The device's label (`sim` or the port).
+    #[must_use]
+    pub fn device_label(&self) -> &str {
+        &self.device_label
+    }
+
+    /// Whether the device is the simulated one.
+    #[must_use]
+    pub fn is_sim(&self) -> bool {
+        self.device.is_sim()
+    }
+
+    /// How the simulated device steps, at the plan's loop rate (its
+    /// fastest model's): the device stream's nominal rate.
+    #[must_use]
+    pub fn sim_stepping(&self) -> Option<How> {
+        self.device.is_sim().then_some(How {
+            rate_hz: self.loop_rate_hz,
+            ..self.row_render.1
+        })
+    }
+
+    /// The trial a resume starts at, if this run resumes.
+    #[must_use]
+    pub fn resumed_at(&self) -> Option<usize> {
+        self.resumed_at
+    }
+
+    /// The session's header.
+    #[must_use]
+    pub fn header(&self) -> &Header {
+        self.log.header()
+    }
+
+    fn emit(&mut self, event: impl FnOnce() -> Event) {
+        if let Some(events) = &mut self.events {
+            events.push_back(event());
+        }
+    }
+
+    /// The one way in: see [`Feed`].
     ///
     /// # Errors
     /// I/O on the log or CSV.
-    pub fn step(&mut self) -> Result<(), ResultsError> {
+    pub fn handle(&mut self, feed: Feed) -> Result<(), ResultsError> {
+        if !matches!(feed, Feed::Close(_)) {
+            // A shell that did not close: the log's last lines as they are.
+            self.close(&[])?;
+        }
+        match feed {
+            Feed::Tick => self.step(),
+            Feed::Poll => self.poll_device(),
+            Feed::Frame(wall_s) => self.advance(wall_s),
+            Feed::Input(input) => self.input(input),
+            Feed::Click => {
+                let x_m = self.sample.x_m;
+                self.input(Input::Click { x_m })
+            }
+            Feed::Pause => self.pause(),
+            Feed::Resume => self.resume(),
+            Feed::Abort => self.stop_run("session aborted by the experimenter", None),
+            Feed::Signal(signal) => self.stop_run(
+                INTERRUPTED,
+                Some(LogLine::Interrupted {
+                    signal: signal.name().to_owned(),
+                }),
+            ),
+            Feed::Note(text) => self.note(text),
+            Feed::StopDevice => self.stop_device(),
+            Feed::Go => {
+                if self.gate == Gate::Asked {
+                    self.gate = Gate::Went;
+                    // The session starts at the next tick, not on the
+                    // ticks queued while the shell got ready.
+                    if let Device::Port(port) = &mut self.device {
+                        port.skip_queued();
+                    }
+                }
+                Ok(())
+            }
+            Feed::Close(lines) => self.close(&lines),
+        }
+    }
+
+    /// Writes `lines` and then the log's last line, if the run has ended
+    /// and they wait ([`Feed::Close`]).
+    fn close(&mut self, lines: &[LogLine]) -> Result<(), ResultsError> {
+        let Some(closing) = self.closing.take() else {
+            return Ok(());
+        };
+        if let Some(open) = self.log.opened() {
+            for line in lines {
+                open.log.append(line)?;
+            }
+        }
+        match closing {
+            Closing::End => self.log.write_end(),
+            Closing::Stop(Some(line)) => match self.log.opened() {
+                Some(open) => open.log.append(&line),
+                None => Ok(()),
+            },
+            Closing::Stop(None) => Ok(()),
+        }
+    }
+
+    /// The run ends with `closing`: now, or at the shell's [`Feed::Close`].
+    fn end_with(&mut self, closing: Closing) -> Result<(), ResultsError> {
+        self.closing = Some(closing);
+        if self.gate == Gate::Open {
+            self.close(&[])
+        } else {
+            Ok(())
+        }
+    }
+
+    fn step(&mut self) -> Result<(), ResultsError> {
         self.settle()?;
         if self.phase == Phase::Running {
-            if self.lsl.is_some() {
-                // Paced on LSL's clock: the tick waits for its time.
-                self.lsl_hold();
-            }
             self.tick_sim();
         }
         Ok(())
@@ -458,15 +674,14 @@ impl<R: Responder> Session<R> {
         // (`Session::render`).
         self.row_render.0 = *render;
         self.t += dt;
+        if self.gate != Gate::Open {
+            let (t, sample) = (self.t, self.sample);
+            self.emit(|| Event::Sample { t, sample });
+        }
         self.observe();
     }
 
-    /// Reads every tick the haptic loop has reported, then settles. Does
-    /// nothing more with the simulated device.
-    ///
-    /// # Errors
-    /// I/O on the log or CSV.
-    pub fn poll_device(&mut self) -> Result<(), ResultsError> {
+    fn poll_device(&mut self) -> Result<(), ResultsError> {
         while let Device::Port(port) = &mut self.device
             && let Some((tick, pressed)) = port.recv()
         {
@@ -488,7 +703,8 @@ impl<R: Responder> Session<R> {
                 continue;
             }
             if self.lost_since.take().is_some() {
-                lsl::device_lost(self.lsl.as_deref_mut(), self.t, false);
+                let t = self.t;
+                self.emit(|| Event::DeviceBack { t });
             }
             if matches!(self.log, Log::Planned { .. }) {
                 // A session starts with the hand on the track, held
@@ -503,18 +719,16 @@ impl<R: Responder> Session<R> {
                     continue;
                 }
                 self.off_track_m = None;
-                if self.lsl.as_ref().is_some_and(|tap| !tap.is_open()) {
-                    // Its streams open first (issue 42), and may have
-                    // waited for a recorder: the session starts at the
-                    // next tick, not on the ticks queued meanwhile.
-                    self.lsl_open(how).map_err(|e| ResultsError::Io {
-                        path: String::new(),
-                        source: std::io::Error::other(e.to_string()),
-                    })?;
-                    if let Device::Port(port) = &mut self.device {
-                        port.skip_queued();
+                match self.gate {
+                    Gate::Waiting => {
+                        // Its shell gets ready first (its streams open,
+                        // perhaps waiting for a recorder).
+                        self.gate = Gate::Asked;
+                        self.emit(|| Event::Ready { how });
+                        continue;
                     }
-                    continue;
+                    Gate::Asked => continue,
+                    Gate::Open | Gate::Went => {}
                 }
                 // The session starts (its files are written) once the
                 // device answers.
@@ -554,15 +768,7 @@ impl<R: Responder> Session<R> {
         self.settle()
     }
 
-    /// Advances the session to the window's frame at wall-clock time
-    /// `wall_s` (any monotonic clock, s): the simulated device steps by the
-    /// frame's time (at most [`MAX_FRAME_STEP_S`]; not while paused) in
-    /// whole ticks, the rest carried to the next frame; a port's ticks are
-    /// read.
-    ///
-    /// # Errors
-    /// I/O on the log or CSV.
-    pub fn advance(&mut self, wall_s: f64) -> Result<(), ResultsError> {
+    fn advance(&mut self, wall_s: f64) -> Result<(), ResultsError> {
         let step = self
             .wall
             .map_or(0.0, |w| (wall_s - w).clamp(0.0, MAX_FRAME_STEP_S));
@@ -575,7 +781,8 @@ impl<R: Responder> Session<R> {
             self.owed = (self.owed + Time::from_secs_saturating(step)).min(most);
         }
         if self.device.is_sim() {
-            self.lsl_frame(self.t + self.owed);
+            let end = self.t + self.owed;
+            self.emit(|| Event::Frame { end });
         }
         loop {
             self.settle()?;
@@ -607,9 +814,6 @@ impl<R: Responder> Session<R> {
             open.streams
                 .push(self.t.secs(), &self.sample, index, self.marks);
         }
-        if self.lsl.is_some() {
-            self.lsl_sample();
-        }
         if let Some(trace) = &mut self.trace {
             trace.observe(self.t.secs(), &self.sample);
         }
@@ -625,14 +829,14 @@ impl<R: Responder> Session<R> {
     fn lost(&mut self) {
         if self.lost_since.is_none() && matches!(self.log, Log::Open(_)) {
             // Lost after it had answered (not still connecting).
-            lsl::device_lost(self.lsl.as_deref_mut(), self.t, true);
+            let t = self.t;
+            self.emit(|| Event::DeviceLost { t });
         }
         self.lost_since.get_or_insert(self.t);
         if self.engine.in_trial() {
             self.interrupt_trial("device lost");
         }
     }
-
     /// Queues an abort (re-queued) of the trial under way, ahead of every
     /// other input, unless one is queued already.
     fn interrupt_trial(&mut self, reason: &str) {
@@ -708,8 +912,10 @@ impl<R: Responder> Session<R> {
             match next {
                 None => return Ok(()),
                 Some(Pending::Input(input)) => {
-                    if self.lsl.is_some() {
-                        self.lsl_input(&input);
+                    if self.events.is_some() {
+                        let (t, trial) = (self.t, self.trial_under_way());
+                        let input = input.clone();
+                        self.emit(|| Event::Input { t, trial, input });
                     }
                     self.engine.handle(self.t, input);
                 }
@@ -718,32 +924,44 @@ impl<R: Responder> Session<R> {
                     self.engine.handle_timeout(self.t);
                 }
             }
-            if self.lsl.is_some() {
-                self.lsl_after_engine();
+            let in_trial = self.trial_under_way();
+            if in_trial.is_some()
+                && self.trial_seen.is_none()
+                && self.events.is_some()
+                && let Some(trial) = self.engine.trial()
+            {
+                let (t, trial) = (self.t, Box::new(trial.clone()));
+                self.emit(|| Event::TrialStarted { t, trial });
             }
+            self.trial_seen = in_trial;
             self.due = self.engine.poll_timeout();
         }
     }
 
+    /// The trial under way, if any.
+    fn trial_under_way(&self) -> Option<usize> {
+        self.engine.in_trial().then(|| self.engine.trial_index())
+    }
+
     fn act(&mut self, action: &Action) -> Result<(), ResultsError> {
         self.view.follow(action);
-        if self.lsl.is_some() && !matches!(action, Action::Render(_)) {
-            self.lsl_action(action, None);
-        }
+        let mut render = None;
         match action {
-            Action::Render(model) => {
-                let render = self.render(model.as_ref());
-                if self.lsl.is_some() {
-                    self.lsl_action(action, Some(render));
-                }
-            }
+            Action::Render(model) => render = Some(self.render(model.as_ref())),
             Action::Physical(model) => self.device.set_physical(model.as_ref()),
             Action::Record(record) => {
                 let mut record = record.clone();
                 record.rendering = self.renders.take();
-                self.lsl_record(&mut record);
+                if let Some(annotate) = &mut self.annotate {
+                    annotate(&mut record);
+                }
                 self.log.write_record(&record)?;
-                self.lsl_written();
+                // The next trial starts after this one's record.
+                self.trial_seen = None;
+                if self.events.is_some() {
+                    let (t, record) = (self.t, Box::new(record.clone()));
+                    self.emit(|| Event::Written { t, record });
+                }
                 // On a port the loop ran on while the record was written:
                 // the next trial starts once those ticks are read, at the
                 // present, not at the tick before the write.
@@ -758,17 +976,26 @@ impl<R: Responder> Session<R> {
             Action::Finished => {
                 self.stop_device()?;
                 let outcome = self.outcome();
-                let (completed, aborted) = (outcome.completed, outcome.aborted);
-                self.lsl_event("session_end", |m| {
-                    m.insert("completed".into(), completed.into());
-                    m.insert("aborted".into(), aborted.into());
+                let (t, completed, aborted) = (self.t, outcome.completed, outcome.aborted);
+                self.emit(|| Event::Finished {
+                    t,
+                    completed,
+                    aborted,
                 });
-                self.lsl_close()?;
-                self.log.write_end()?;
                 self.phase = Phase::Finished;
-                return Ok(());
+                return self.end_with(Closing::End);
             }
             Action::Show(_) | Action::Ask(_) | Action::Refused(_) | Action::Prompt(_) => {}
+        }
+        if self.events.is_some() && !matches!(action, Action::Physical(_) | Action::Record(_)) {
+            let (t, trial) = (self.t, self.engine.trial().map(|p| p.index));
+            let action = Box::new(action.clone());
+            self.emit(|| Event::Action {
+                t,
+                trial,
+                action,
+                render,
+            });
         }
         let reaction = self
             .responder
@@ -779,10 +1006,7 @@ impl<R: Responder> Session<R> {
 
     /// Stops the haptic loop, putting its statistics in the log (a session
     /// whose device never answered has no log to hold them).
-    ///
-    /// # Errors
-    /// I/O on the log.
-    pub fn stop_device(&mut self) -> Result<(), ResultsError> {
+    fn stop_device(&mut self) -> Result<(), ResultsError> {
         if let Some(stats) = self.device.stop()
             && let Some(open) = self.log.opened()
         {
@@ -791,13 +1015,7 @@ impl<R: Responder> Session<R> {
         Ok(())
     }
 
-    /// Sends an input from the participant or experimenter (an answer,
-    /// Continue, a stimulus switch) and carries out what follows. Ignored
-    /// unless running.
-    ///
-    /// # Errors
-    /// I/O on the log or CSV.
-    pub fn input(&mut self, input: Input) -> Result<(), ResultsError> {
+    fn input(&mut self, input: Input) -> Result<(), ResultsError> {
         if self.phase != Phase::Running {
             return Ok(());
         }
@@ -805,68 +1023,30 @@ impl<R: Responder> Session<R> {
         self.settle()
     }
 
-    /// A Fitts click (mouse, space bar) at the device's current position.
-    ///
-    /// # Errors
-    /// I/O on the log or CSV.
-    pub fn click(&mut self) -> Result<(), ResultsError> {
-        let x_m = self.sample.x_m;
-        self.input(Input::Click { x_m })
-    }
-
-    /// Pauses: a trial being presented is aborted and presented again on
-    /// resume; nothing is rendered while paused.
-    ///
-    /// # Errors
-    /// I/O on the log or CSV.
-    pub fn pause(&mut self) -> Result<(), ResultsError> {
+    fn pause(&mut self) -> Result<(), ResultsError> {
         if self.phase != Phase::Running {
             return Ok(());
         }
         self.phase = Phase::Paused;
-        self.lsl_event("pause", |_| {});
+        let t = self.t;
+        self.emit(|| Event::Paused { t });
         self.interrupt("paused by the experimenter")
     }
 
-    /// Resumes after [`Session::pause`].
-    ///
-    /// # Errors
-    /// I/O on the log or CSV.
-    pub fn resume(&mut self) -> Result<(), ResultsError> {
+    fn resume(&mut self) -> Result<(), ResultsError> {
         if self.phase != Phase::Paused {
             return Ok(());
         }
         self.phase = Phase::Running;
-        self.lsl_event("resume", |_| {});
+        let t = self.t;
+        self.emit(|| Event::Resumed { t });
         self.settle()
     }
 
-    /// Aborts the session: a trial being presented is logged as aborted
-    /// (and re-queued), the device stops, and the log stays open-ended so
-    /// the session can be resumed.
-    ///
-    /// # Errors
-    /// I/O on the log or CSV.
-    pub fn abort(&mut self) -> Result<(), ResultsError> {
-        self.stop_run("session aborted by the experimenter", None)
-    }
-
-    /// Ends the run on a signal (issue 31): a trial being presented is
-    /// logged as aborted with the reason [`INTERRUPTED`] (and re-queued, so
-    /// a resume presents it again), the device stops, and an `interrupted`
-    /// line records the signal; the log stays open-ended for a resume.
-    ///
-    /// # Errors
-    /// I/O on the log or CSV.
-    pub fn interrupted(&mut self, signal: crate::interrupt::Signal) -> Result<(), ResultsError> {
-        self.stop_run(
-            INTERRUPTED,
-            Some(LogLine::Interrupted {
-                signal: signal.name().to_owned(),
-            }),
-        )
-    }
-
+    /// Aborts the run (the experimenter, or a signal: its `interrupted`
+    /// line): a trial being presented is logged as aborted with `reason`
+    /// (and re-queued, so a resume presents it again), the device stops,
+    /// and the log stays open-ended for a resume.
     fn stop_run(&mut self, reason: &str, line: Option<LogLine>) -> Result<(), ResultsError> {
         if !matches!(self.phase, Phase::Running | Phase::Paused) {
             return Ok(());
@@ -880,19 +1060,11 @@ impl<R: Responder> Session<R> {
             Some(LogLine::Interrupted { signal }) => Some(signal.clone()),
             _ => None,
         };
-        self.lsl_event("session_stop", |m| {
-            m.insert("reason".into(), reason.into());
-            if let Some(signal) = signal {
-                m.insert("signal".into(), signal.into());
-            }
-        });
-        self.lsl_close()?;
-        if let (Some(line), Some(open)) = (line, self.log.opened()) {
-            open.log.append(&line)?;
-        }
+        let (t, reason) = (self.t, reason.to_owned());
+        self.emit(|| Event::Stopped { t, reason, signal });
         self.phase = Phase::Aborted;
         self.view = View::default();
-        Ok(())
+        self.end_with(Closing::Stop(line.map(Box::new)))
     }
 
     fn interrupt(&mut self, reason: &str) -> Result<(), ResultsError> {
@@ -917,19 +1089,15 @@ impl<R: Responder> Session<R> {
 
     /// Appends the experimenter's note to the session log (held until the
     /// log opens).
-    ///
-    /// # Errors
-    /// I/O on the log.
-    pub fn note(&mut self, text: &str) -> Result<(), ResultsError> {
-        self.lsl_event("note", |m| {
-            m.insert("text".into(), text.into());
-        });
+    fn note(&mut self, text: String) -> Result<(), ResultsError> {
+        if self.events.is_some() {
+            let (t, text) = (self.t, text.clone());
+            self.emit(|| Event::Note { t, text });
+        }
         match &mut self.log {
-            Log::Open(open) => open.log.append(&LogLine::Note {
-                text: text.to_owned(),
-            }),
+            Log::Open(open) => open.log.append(&LogLine::Note { text }),
             Log::Planned { notes, .. } => {
-                notes.push(text.to_owned());
+                notes.push(text);
                 Ok(())
             }
             // A session in memory is a simulated one: no experimenter.

@@ -15,11 +15,16 @@ const KEPT: usize = 16;
 
 /// How a tick's render was stepped.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct How {
+pub struct How {
+    /// Who rendered it.
     pub mode: RenderMode,
+    /// The float it was stepped in.
     pub float: crate::friction::Float,
+    /// Loop rate, Hz.
     pub rate_hz: f64,
+    /// Crossfade from the previous render, s.
     pub ramp_s: f64,
+    /// Force limit, N.
     pub force_limit_n: f64,
 }
 

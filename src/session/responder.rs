@@ -8,10 +8,9 @@ use crate::hand::HandDrive;
 use crate::kinds::{Action, PlannedTrial};
 pub use crate::participant::Reaction;
 use crate::participant::SimParticipant;
-use crate::results::ResultsDir;
 use crate::time::Time;
 
-use super::{Session, SessionError, SessionRequest};
+use super::Session;
 
 /// Who answers the session's questions and moves the hand.
 pub trait Responder {
@@ -119,15 +118,6 @@ impl Responder for Person {
 }
 
 impl Session<Person> {
-    /// Starts (or resumes) a session a person runs from the window (logged
-    /// with responder `gui`), with a live trace.
-    ///
-    /// # Errors
-    /// As [`Session::begin`].
-    pub fn start(dir: &ResultsDir, req: &SessionRequest<'_>) -> Result<Self, SessionError> {
-        Ok(Session::begin(dir, req, |_| Person::default())?.with_trace())
-    }
-
     /// Where the mouse holds the hand, m (`None`: the pointer is away).
     pub fn set_hand_target(&mut self, x_m: Option<f64>) {
         self.responder.set_hand_target(x_m);
