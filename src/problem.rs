@@ -1,7 +1,7 @@
 //! [`Problem`]: one problem with the user's input, where it is and what is
 //! wrong. Every part that checks input (model parameters, protocol files,
 //! `--set` overrides, identification data, results folders, the analysis,
-//! the command line's flags) reports this one type; `cli.rs` prints it as
+//! the command line's flags) reports this one type; the command line (`src/cli/`) prints it as
 //! `error: <place>: <message>`.
 
 /// A problem with the input: where and what. Displayed as `place: message`

@@ -25,7 +25,7 @@
 //! would show as a difference, never pass unseen.)
 //!
 //! A select takes effect at its row, the model at rest at that row's
-//! position, as the haptic loop and the on-board `Board` do; on the
+//! position, as the haptic loop and the on-board `BoardLoop` does; on the
 //! simulated device, at the previous row's position (where the device was
 //! when the model was set).
 //!

@@ -84,14 +84,14 @@ fn firmware_dir() -> &'static Path {
 
 /// `frictionlab firmware-qemu --link LINK`, in its own process group so
 /// that killing the group kills QEMU too.
-struct Board {
+struct Qemu {
     child: Child,
     /// QEMU's process id, as the command printed it.
     qemu_pid: u32,
 }
 
-impl Board {
-    fn boot(link: &Path) -> Board {
+impl Qemu {
+    fn boot(link: &Path) -> Qemu {
         use std::os::unix::process::CommandExt;
         let mut child = Command::new(env!("CARGO_BIN_EXE_frictionlab"))
             .args(["firmware-qemu", "--elf"])
@@ -118,7 +118,7 @@ impl Board {
             .and_then(|l| l.rsplit_once("(QEMU pid "))
             .and_then(|(_, pid)| pid.parse().ok())
             .unwrap_or_else(|| panic!("no QEMU pid in {line}"));
-        Board { child, qemu_pid }
+        Qemu { child, qemu_pid }
     }
 
     /// Kills QEMU and the command (the whole process group).
@@ -130,7 +130,7 @@ impl Board {
     }
 }
 
-impl Drop for Board {
+impl Drop for Qemu {
     fn drop(&mut self) {
         self.kill();
     }
@@ -153,7 +153,7 @@ fn firmware_qemu_leaves_no_qemu_behind_under_sigterm_or_kill_9_issue_31() {
         return;
     };
     for signal in ["TERM", "KILL"] {
-        let mut board = Board::boot(&dev);
+        let mut board = Qemu::boot(&dev);
         let qemu = board.qemu_pid;
         assert!(alive(qemu), "QEMU {qemu} runs");
         // The command alone, not its process group.
@@ -209,7 +209,7 @@ fn quick_sessions_run_on_the_firmware_in_qemu_and_rerender_bit_exact_issue_16() 
     let Some((_turn, dir, dev)) = setup() else {
         return;
     };
-    let _board = Board::boot(&dev);
+    let _board = Qemu::boot(&dev);
     for (protocol, trials) in [("magnitude-quick", 6), ("paired-quick", 1)] {
         let out = dir.path().join(protocol);
         let o = run_session(protocol, &dev, &out, &[]);
@@ -306,7 +306,7 @@ fn a_session_survives_qemu_killed_and_restarted_issue_16() {
     };
     let out = dir.path().join("results");
     let log = log_path(&out, "magnitude-quick");
-    let mut board = Board::boot(&dev);
+    let mut board = Qemu::boot(&dev);
     let run = {
         let (dev, out) = (dev.clone(), out.clone());
         std::thread::spawn(move || run_session("magnitude-quick", &dev, &out, &[]))
@@ -320,7 +320,7 @@ fn a_session_survives_qemu_killed_and_restarted_issue_16() {
     std::thread::sleep(Duration::from_millis(700));
     board.kill();
     std::thread::sleep(Duration::from_secs(2));
-    let _board = Board::boot(&dev);
+    let _board = Qemu::boot(&dev);
     let first = run.join().unwrap();
     // The run finishes on the restarted board, or gives up (exit 3) and the
     // session is resumed.
@@ -424,7 +424,7 @@ fn the_firmware_clamps_keeps_its_watchdog_and_ignores_corrupted_frames_in_qemu_i
     let Some((_turn, _dir, dev)) = setup() else {
         return;
     };
-    let _board = Board::boot(&dev);
+    let _board = Qemu::boot(&dev);
     let mut host = Host::open(&dev);
     host.hello();
     host.send(&Message::SetTelemetry { every: 1 });

@@ -18,7 +18,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use frictionlab::device::backend::Backend as _;
-use frictionlab::device::haply2diy::{Board, Config, pantograph};
+use frictionlab::device::haply2diy::{Config, Haply2Diy, pantograph};
 
 const BIN: &str = env!("CARGO_BIN_EXE_frictionlab");
 
@@ -131,7 +131,7 @@ fn the_vendors_client_and_frictionlab_send_the_same_bytes_and_read_the_same_angl
             our_transcript.to_str().unwrap(),
         ],
     );
-    let mut board = Board::new(&dev, Config::vendor(3));
+    let mut board = Haply2Diy::new(&dev, Config::vendor(3));
     let start = Instant::now();
     let now = || start.elapsed().as_secs_f64();
     board.read(now()); // opens the port: reset and setup

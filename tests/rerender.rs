@@ -151,13 +151,13 @@ fn a_stream_without_rows_re_renders_as_nothing_to_replay() {
     );
 }
 
-/// Streams of a [`Board`] rendering on board at 5 kHz, as the host records
+/// Streams of a [`BoardLoop`] rendering on board at 5 kHz, as the host records
 /// them.
 mod on_board {
     use frictionlab::friction::{Float, Input, ModelParams};
     use frictionlab::protocol::engine::{RenderEntry, RenderMode};
     use frictionlab::rerender::Row;
-    use frictionlab_core::onboard::Board;
+    use frictionlab_core::onboard::BoardLoop;
     use frictionlab_core::wire::{Message, status};
 
     pub const RATE_HZ: u16 = 5000;
@@ -165,13 +165,13 @@ mod on_board {
     /// Tick `k` of `board` on a stroke of 0.03 m at `w` rad/s: its
     /// telemetry as a stream row. The host knows label 1 as its render 0;
     /// any other label is render 1.
-    pub fn tick_row(board: &mut Board<f32>, k: u32, w: f64) -> Row {
+    pub fn tick_row(board: &mut BoardLoop<f32>, k: u32, w: f64) -> Row {
         tick_row_as(board, k, w, |label| usize::from(label != 1))
     }
 
     /// [`tick_row`] with the host's render for each label.
     pub fn tick_row_as(
-        board: &mut Board<f32>,
+        board: &mut BoardLoop<f32>,
         k: u32,
         w: f64,
         render_of: impl Fn(u8) -> usize,
@@ -233,13 +233,13 @@ fn an_on_board_stream_with_a_tripped_watchdog_a_resent_model_and_lost_telemetry_
  {
     use frictionlab::friction::{ForceLimit, ModelParams};
     use frictionlab::rerender::rerender;
-    use frictionlab_core::onboard::{Board, upload};
+    use frictionlab_core::onboard::{BoardLoop, upload};
     use frictionlab_core::wire::Message;
     use on_board::{RATE_HZ, entry, tick_row};
 
     let model = ModelParams::default_for("stick-slip-tactile").unwrap();
-    let mut board = Board::<f32>::new(RATE_HZ, ForceLimit::new(8.0).unwrap());
-    let send_model = |board: &mut Board<f32>| upload(&model, 1, |m| board.receive(&m));
+    let mut board = BoardLoop::<f32>::new(RATE_HZ, ForceLimit::new(8.0).unwrap());
+    let send_model = |board: &mut BoardLoop<f32>| upload(&model, 1, |m| board.receive(&m));
     send_model(&mut board);
     // The host goes silent from 0.60 s to 0.66 s (its heartbeats are 1 ms
     // apart otherwise) and sends the model again at 1.4 s.
@@ -324,12 +324,12 @@ fn an_on_board_stream_with_a_tripped_watchdog_a_resent_model_and_lost_telemetry_
 fn an_on_board_stream_of_a_device_started_afresh_re_renders_exactly_up_to_the_restart() {
     use frictionlab::friction::{ForceLimit, ModelParams};
     use frictionlab::rerender::rerender;
-    use frictionlab_core::onboard::{Board, upload};
+    use frictionlab_core::onboard::{BoardLoop, upload};
     use frictionlab_core::wire::Message;
     use on_board::{RATE_HZ, entry, tick_row};
 
     let model = ModelParams::default_for("karnopp").unwrap();
-    let mut board = Board::<f32>::new(RATE_HZ, ForceLimit::new(8.0).unwrap());
+    let mut board = BoardLoop::<f32>::new(RATE_HZ, ForceLimit::new(8.0).unwrap());
     upload(&model, 1, |m| board.receive(&m));
     let mut rows = Vec::new();
     for k in 0..4000_u32 {
@@ -361,14 +361,14 @@ fn an_on_board_stream_opening_with_the_previous_trials_late_select_re_renders_ex
  {
     use frictionlab::friction::{ForceLimit, ModelParams};
     use frictionlab::rerender::rerender;
-    use frictionlab_core::onboard::{Board, upload};
+    use frictionlab_core::onboard::{BoardLoop, upload};
     use frictionlab_core::wire::Message;
     use on_board::{RATE_HZ, entry, tick_row_as};
 
     let first = ModelParams::default_for("karnopp").unwrap();
     let second = ModelParams::default_for("god-object-constant").unwrap();
     let own = ModelParams::default_for("stick-slip-force").unwrap();
-    let mut board = Board::<f32>::new(RATE_HZ, ForceLimit::new(8.0).unwrap());
+    let mut board = BoardLoop::<f32>::new(RATE_HZ, ForceLimit::new(8.0).unwrap());
     upload(&first, 1, |m| board.receive(&m));
     // Labels 1 to 4 are the trial's renders 0 to 3.
     let render_of = |label: u8| usize::from(label) - 1;

@@ -14,7 +14,7 @@
 
 use frictionlab::device::frictionlab::wire::{Decoder, MAX_FRAME, Message, frame, status};
 use frictionlab::friction::{ForceLimit, Input, ModelParams};
-use frictionlab_core::onboard::{Board, upload};
+use frictionlab_core::onboard::{BoardLoop, upload};
 use frictionlab_core::render::{RAMP_S, Renderer};
 use proptest::prelude::*;
 
@@ -295,7 +295,7 @@ proptest! {
         }
         let a = ModelParams::unflatten(flat.kind, flat.used()).unwrap();
         let limit = ForceLimit::new(9.48_f32).unwrap();
-        let mut board = Board::<f32>::new(5000, limit);
+        let mut board = BoardLoop::<f32>::new(5000, limit);
         let mut reference = Renderer::<f32>::new(limit, RAMP_S as f32);
         prop_assume!(reference.clone().select(Some(&a), 0.0), "A is a valid {}", name);
 

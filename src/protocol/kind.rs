@@ -52,23 +52,23 @@ pub enum Quality {
     Stiffness,
 }
 
-/// A part of a kind that a plan holds (a trial): data, sent between
-/// threads.
-pub trait Planned:
+/// Plain data a kind hands around (a trial, in a plan): cloned, compared,
+/// serialised, sent between threads.
+pub trait Plain:
     Debug + Clone + PartialEq + Serialize + DeserializeOwned + Send + Sync + 'static
 {
 }
 
-impl<T> Planned for T where
+impl<T> Plain for T where
     T: Debug + Clone + PartialEq + Serialize + DeserializeOwned + Send + Sync + 'static
 {
 }
 
 /// A part of a kind that files hold and describe (a design, a record's
-/// data): a [`Planned`] part with a JSON Schema.
-pub trait Logged: Planned + JsonSchema {}
+/// data): [`Plain`] data with a JSON Schema.
+pub trait Logged: Plain + JsonSchema {}
 
-impl<T: Planned + JsonSchema> Logged for T {}
+impl<T: Plain + JsonSchema> Logged for T {}
 
 /// The kinds of study a program knows, as the registry lists them: the
 /// tagged unions of their parts, and what the protocol core asks of them
@@ -77,7 +77,7 @@ pub trait Kinds: Debug + Clone + Copy + PartialEq + Send + Sync + 'static {
     /// A protocol's design: one kind's, tagged `kind`.
     type Design: Logged;
     /// What one trial presents.
-    type Trial: Planned;
+    type Trial: Plain;
     /// What a trial's record logs (its `data`), tagged `kind`.
     type Data: Logged;
     /// A trial live in the engine.
@@ -183,7 +183,7 @@ pub trait StudyKind: Sized + 'static {
     /// The study's design: a protocol's `design` object (tagged `kind`).
     type Design: Logged;
     /// What one trial presents.
-    type Trial: Planned;
+    type Trial: Plain;
     /// A trial live in the engine, from its start to its record.
     type Live: LiveTrial<Data = Self::Data>;
     /// What a trial's record logs for this kind (its `data`).

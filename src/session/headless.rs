@@ -140,7 +140,7 @@ fn stopped<R: Responder>(
 /// I/O on the results.
 pub fn run_planned<R: Responder>(
     dir: &ResultsDir,
-    planned: super::Planned,
+    planned: super::PlannedSession,
     pace: Option<f64>,
     responder: impl FnOnce(&Header) -> R,
     stop: Option<&Interrupt>,

@@ -87,10 +87,10 @@ pub mod feel;
 pub mod headless;
 pub mod lsl;
 pub mod open;
-pub mod record;
 mod renders;
 pub mod responder;
 pub mod run;
+pub mod stream;
 pub mod view;
 
 use std::collections::VecDeque;
@@ -104,14 +104,14 @@ pub use headless::{
     sim_participant, simulate_in_memory, simulate_participants,
 };
 use open::Log;
-pub use open::{DeviceChoice, OpenLog, Planned, SessionRequest, plan};
-pub use record::{RowMarks, StreamRecorder};
+pub use open::{DeviceChoice, OpenLog, PlannedSession, SessionRequest, plan};
 pub use renders::How;
 pub use responder::{
     MOUSE_HAND_DAMPING_N_S_M, MOUSE_HAND_MASS_KG, MOUSE_HAND_STIFFNESS_N_M, Person, Reaction,
     Responder,
 };
 pub use run::{LiveSession, Run};
+pub use stream::{RowMarks, StreamRecorder};
 pub use view::{Phase, Progress, TRACE_EVERY_S, TRACE_LENGTH_S, TracePoint, View};
 
 use crate::device::DeviceSample;
@@ -246,7 +246,7 @@ pub struct Session<R: Responder> {
     timeout_queued: bool,
     /// The engine's [`Engine::poll_timeout`], kept after each call that
     /// can change it (`handle`, `handle_timeout`) so ticks need not ask.
-    due: Option<Time>,
+    engine_deadline: Option<Time>,
     phase: Phase,
     view: View,
     trace: Option<Trace>,
@@ -255,17 +255,18 @@ pub struct Session<R: Responder> {
     records: usize,
     last_record: Option<usize>,
     done_this_run: usize,
-    wall: Option<f64>,
+    /// Wall-clock time of the window's last frame, s.
+    last_frame_s: Option<f64>,
     /// Session time the window's frames have given the simulated device
-    /// and its whole ticks have not yet taken ([`Session::advance`]).
+    /// and its whole ticks have not yet taken ([`Feed::Frame`]).
     owed: Time,
     renders: Renders,
     /// The render in effect at the last device sample, and how it was
     /// stepped.
     row_render: (u32, How),
-    /// The last device sample's marks, and (the simulated device) whether
+    /// The last device sample's row marks, and (the simulated device) whether
     /// a render takes effect at the next.
-    marks: RowMarks,
+    row_marks: RowMarks,
     /// While the session waits to start: how far off the track the hand
     /// was at the last tick, if it was too far.
     off_track_m: Option<f64>,
@@ -325,7 +326,7 @@ impl<R: Responder> Session<R> {
     /// As [`Session::begin`].
     pub fn from_planned(
         dir: &ResultsDir,
-        planned: Planned,
+        planned: PlannedSession,
         device: &DeviceChoice,
         responder: impl FnOnce(&Header) -> R,
     ) -> Result<Self, SessionError> {
@@ -334,7 +335,7 @@ impl<R: Responder> Session<R> {
         let resumed_at = planned.resumes_at();
         let engine = planned.engine();
         let rate_hz = planned.source.loop_rate_hz();
-        let log = Log::Planned {
+        let log = Log::Unopened {
             planned: Box::new(planned),
             dir: dir.clone(),
             notes: Vec::new(),
@@ -390,7 +391,7 @@ impl<R: Responder> Session<R> {
         match self.log {
             Log::Memory(read) => *read,
             Log::Open(open) => open.read,
-            Log::Planned { planned, .. } => ReadLog {
+            Log::Unopened { planned, .. } => ReadLog {
                 header: planned.header().clone(),
                 trials: Vec::new(),
                 ended: false,
@@ -439,7 +440,7 @@ impl<R: Responder> Session<R> {
             start_t,
             pending: VecDeque::from([Pending::Input(Input::Start)]),
             timeout_queued: false,
-            due: None,
+            engine_deadline: None,
             phase: Phase::Running,
             view: View::default(),
             trace: None,
@@ -448,10 +449,10 @@ impl<R: Responder> Session<R> {
             records: 0,
             last_record: None,
             done_this_run: 0,
-            wall: None,
+            last_frame_s: None,
             owed: Time::ZERO,
             renders: Renders::default(),
-            marks: RowMarks::default(),
+            row_marks: RowMarks::default(),
             off_track_m: None,
             on_track_since: None,
             device_problem: None,
@@ -523,7 +524,7 @@ impl<R: Responder> Session<R> {
     pub fn poll_timeout(&self) -> Option<Time> {
         match &self.device {
             Device::Sim { dt, .. } if self.phase == Phase::Running => Some(self.t + *dt),
-            _ => self.due,
+            _ => self.engine_deadline,
         }
     }
 
@@ -664,7 +665,7 @@ impl<R: Responder> Session<R> {
         let dt = *dt;
         let force = self.responder.hand_force(self.t, dt.secs(), &self.sample);
         self.sample = device.step(dt.secs(), force);
-        self.marks = RowMarks {
+        self.row_marks = RowMarks {
             selected: std::mem::take(&mut self.sim_selected),
             watchdog: false,
             device_tick: None,
@@ -691,7 +692,7 @@ impl<R: Responder> Session<R> {
             let period = Time::period(how.rate_hz);
             let at = self.start_t + Time::from_secs_saturating(tick.now_s).round_to(period);
             self.t = self.t.max(at);
-            if matches!(self.log, Log::Planned { .. }) {
+            if matches!(self.log, Log::Unopened { .. }) {
                 self.device_problem = tick.problem;
             }
             if tick.link != LinkState::Connected {
@@ -706,7 +707,7 @@ impl<R: Responder> Session<R> {
                 let t = self.t;
                 self.emit(|| Event::DeviceBack { t });
             }
-            if matches!(self.log, Log::Planned { .. }) {
+            if matches!(self.log, Log::Unopened { .. }) {
                 // A session starts with the hand on the track, held
                 // there for ON_TRACK_HOLD_S (not passing through it).
                 if tick.off_track_m > ON_TRACK_M {
@@ -744,7 +745,7 @@ impl<R: Responder> Session<R> {
             };
             self.sample = tick.sample();
             self.row_render = (tick.render, how);
-            self.marks = RowMarks {
+            self.row_marks = RowMarks {
                 selected: tick.selected,
                 watchdog: tick.watchdog,
                 device_tick: tick.device_tick,
@@ -770,9 +771,9 @@ impl<R: Responder> Session<R> {
 
     fn advance(&mut self, wall_s: f64) -> Result<(), ResultsError> {
         let step = self
-            .wall
+            .last_frame_s
             .map_or(0.0, |w| (wall_s - w).clamp(0.0, MAX_FRAME_STEP_S));
-        self.wall = Some(wall_s);
+        self.last_frame_s = Some(wall_s);
         if !matches!(self.phase, Phase::Running | Phase::Paused) {
             return Ok(());
         }
@@ -812,14 +813,14 @@ impl<R: Responder> Session<R> {
             let (render, how) = self.row_render;
             let index = self.renders.row(render, how);
             open.streams
-                .push(self.t.secs(), &self.sample, index, self.marks);
+                .push(self.t.secs(), &self.sample, index, self.row_marks);
         }
         if let Some(trace) = &mut self.trace {
             trace.observe(self.t.secs(), &self.sample);
         }
         let reaction = self.responder.decide(self.t, &self.sample);
         self.apply(reaction);
-        if !self.timeout_queued && self.due.is_some_and(|due| due <= self.t) {
+        if !self.timeout_queued && self.engine_deadline.is_some_and(|due| due <= self.t) {
             self.timeout_queued = true;
             self.pending.push_back(Pending::Timeout);
         }
@@ -934,7 +935,7 @@ impl<R: Responder> Session<R> {
                 self.emit(|| Event::TrialStarted { t, trial });
             }
             self.trial_seen = in_trial;
-            self.due = self.engine.poll_timeout();
+            self.engine_deadline = self.engine.poll_timeout();
         }
     }
 
@@ -1096,7 +1097,7 @@ impl<R: Responder> Session<R> {
         }
         match &mut self.log {
             Log::Open(open) => open.log.append(&LogLine::Note { text }),
-            Log::Planned { notes, .. } => {
+            Log::Unopened { notes, .. } => {
                 notes.push(text);
                 Ok(())
             }

@@ -1,6 +1,6 @@
 //! The two stages before a session runs: [`plan`] checks a request against
 //! the results folder and draws the plan (it reads only), and
-//! [`Planned::open`] writes: a new session's header, empty CSV and dataset
+//! [`PlannedSession::open`] writes: a new session's header, empty CSV and dataset
 //! description, or the unfinished session's `resumed` line. A device
 //! session connects in between, so a device that never answers leaves no
 //! session behind.
@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use super::SessionError;
-use super::record::StreamRecorder;
+use super::stream::StreamRecorder;
 use crate::kinds::{Engine, Protocol, Registry};
 use crate::kinds::{Header, LogLine, ReadLog, TrialRecord};
 use crate::protocol::engine::TrialSource;
@@ -78,7 +78,7 @@ pub struct SessionRequest<'a> {
 
 /// A session checked and planned; nothing written yet.
 #[derive(Debug)]
-pub struct Planned {
+pub struct PlannedSession {
     /// Where the session's trials come from: the protocol's plan, drawn
     /// from the plan seed and participant index.
     pub source: Arc<dyn TrialSource<Registry>>,
@@ -128,7 +128,7 @@ pub struct OpenLog {
 /// the folder lock and its session lock is held from here on (released if
 /// the plan is dropped); a new one is refused here if one of the
 /// participant's sessions is open in another process, and checked again,
-/// under the folder lock, when its log is created ([`Planned::open`]).
+/// under the folder lock, when its log is created ([`PlannedSession::open`]).
 ///
 /// # Errors
 /// Resuming without an unfinished session; a session of the participant
@@ -137,7 +137,7 @@ pub fn plan(
     dir: &ResultsDir,
     req: &SessionRequest<'_>,
     responder: &str,
-) -> Result<Planned, SessionError> {
+) -> Result<PlannedSession, SessionError> {
     let id = &req.protocol.id;
     if req.resume {
         let folder = dir.lock_folder(false)?;
@@ -159,7 +159,7 @@ pub fn plan(
             });
         }
         let h = &read.header;
-        return Ok(Planned {
+        return Ok(PlannedSession {
             source: Registry::source(&h.protocol, h.plan_seed, h.participant_index),
             opening: Opening::Resume {
                 read: Box::new(read),
@@ -177,7 +177,7 @@ pub fn plan(
         .participant_index
         .unwrap_or_else(|| dir.other_participants(id, req.participant));
     let (header, source) = new_session(req, session, participant_index, responder);
-    Ok(Planned {
+    Ok(PlannedSession {
         source,
         opening: Opening::New {
             header: Box::new(header),
@@ -217,7 +217,7 @@ pub fn new_session(
     (header, source)
 }
 
-impl Planned {
+impl PlannedSession {
     /// The engine that runs the session from where it stands.
     #[must_use]
     pub fn engine(&self) -> Engine {
@@ -356,8 +356,8 @@ impl Planned {
 /// notes wait) or open; or memory (no file: the records are kept for the
 /// caller, as a power study replays them).
 pub(super) enum Log {
-    Planned {
-        planned: Box<Planned>,
+    Unopened {
+        planned: Box<PlannedSession>,
         dir: ResultsDir,
         notes: Vec<String>,
     },
@@ -393,7 +393,7 @@ impl Log {
         match self {
             Log::Open(open) => Some(&open.read),
             Log::Memory(read) => Some(read),
-            Log::Planned { .. } => None,
+            Log::Unopened { .. } => None,
         }
     }
 
@@ -406,7 +406,7 @@ impl Log {
                 path: String::new(),
                 source: std::io::Error::other("a session in memory has no files"),
             }),
-            Log::Planned {
+            Log::Unopened {
                 planned,
                 dir,
                 notes,
@@ -424,7 +424,7 @@ impl Log {
     /// Records the device's settings in the header of a session not yet
     /// written.
     pub(super) fn set_device_settings(&mut self, settings: Option<serde_json::Value>) {
-        if let Log::Planned { planned, .. } = self {
+        if let Log::Unopened { planned, .. } = self {
             planned.set_device_settings(settings);
         }
     }
@@ -432,7 +432,7 @@ impl Log {
     pub(super) fn opened(&mut self) -> Option<&mut OpenLog> {
         match self {
             Log::Open(open) => Some(open),
-            Log::Planned { .. } | Log::Memory(_) => None,
+            Log::Unopened { .. } | Log::Memory(_) => None,
         }
     }
 
@@ -440,7 +440,7 @@ impl Log {
         match self {
             Log::Open(open) => &open.read.header,
             Log::Memory(read) => &read.header,
-            Log::Planned { planned, .. } => planned.header(),
+            Log::Unopened { planned, .. } => planned.header(),
         }
     }
 }

@@ -75,7 +75,7 @@ pub enum Phase {
 pub struct Progress {
     /// Current (or next) trial, 1-based, at most `total`.
     pub trial: usize,
-    /// Planned trials.
+    /// PlannedSession trials.
     pub total: usize,
     /// Block of the current trial.
     pub block: String,
@@ -153,7 +153,7 @@ impl<R: Responder> Session<R> {
     /// session in memory always is.
     #[must_use]
     pub fn is_open(&self) -> bool {
-        !matches!(self.log, Log::Planned { .. })
+        !matches!(self.log, Log::Unopened { .. })
     }
 
     /// While the session waits to start on a device with more than one
@@ -211,7 +211,7 @@ impl<R: Responder> Session<R> {
     pub fn csv(&self) -> &Path {
         match &self.log {
             Log::Open(open) => &open.csv,
-            Log::Planned { planned, .. } => &planned.files().csv,
+            Log::Unopened { planned, .. } => &planned.files().csv,
             Log::Memory(_) => Path::new(""),
         }
     }
@@ -221,7 +221,7 @@ impl<R: Responder> Session<R> {
     pub fn log_path(&self) -> &Path {
         match &self.log {
             Log::Open(open) => open.log.path(),
-            Log::Planned { planned, .. } => &planned.files().log,
+            Log::Unopened { planned, .. } => &planned.files().log,
             Log::Memory(_) => Path::new(""),
         }
     }
@@ -305,7 +305,7 @@ impl<R: Responder> Session<R> {
         let aborted = self.log.read().map_or(0, |r| r.trials.len() - completed);
         let torn_bytes = match &self.log {
             Log::Open(open) => open.torn_bytes,
-            Log::Planned { .. } | Log::Memory(_) => 0,
+            Log::Unopened { .. } | Log::Memory(_) => 0,
         };
         SessionOutcome {
             session: self.session(),

@@ -1,4 +1,4 @@
-//! frictionlab's friction core: every friction model of the three studies,
+//! frictionlab's friction core: every friction model the studies use,
 //! `no_std` and without an allocator, so the same code renders friction on
 //! the host and on a haptic device's microcontroller.
 //!

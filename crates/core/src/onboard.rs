@@ -1,9 +1,9 @@
 //! A device that renders friction itself (wire protocol v2): what firmware
 //! and the emulator's on-board mode run each loop tick.
 //!
-//! [`Board`] is sans-IO. The shell hands it each valid message from the
-//! host ([`Board::receive`]) and, each loop tick, what the device sensed
-//! ([`Board::tick`]); it returns the force and vibration to output and the
+//! [`BoardLoop`] is sans-IO. The shell hands it each valid message from the
+//! host ([`BoardLoop::receive`]) and, each loop tick, what the device sensed
+//! ([`BoardLoop::tick`]); it returns the force and vibration to output and the
 //! `Telemetry` to send. It keeps:
 //! - the staged upload, checked against the `Select`'s CRC before a model
 //!   is built (a lost or corrupted part is refused, never rendered);
@@ -60,7 +60,7 @@ enum Pending {
     clippy::struct_excessive_bools,
     reason = "independent flags of the device's state"
 )]
-pub struct Board<T: Real> {
+pub struct BoardLoop<T: Real> {
     renderer: Renderer<T>,
     has_model: bool,
     staged_kind: u8,
@@ -76,25 +76,27 @@ pub struct Board<T: Real> {
     refused: bool,
     command: T,
     clamped: bool,
-    every: u16,
+    /// Telemetry goes out once per this many ticks (0: none).
+    telemetry_period_ticks: u16,
     countdown: u16,
     tick: u32,
     rate_hz: u16,
     dt: T,
     quiet_ticks: u32,
     watchdog_ticks: u32,
-    heard: bool,
+    /// A message from the host has arrived since start.
+    host_heard: bool,
     longest_loop_us: u32,
     missed_ticks: u32,
 }
 
-impl<T: Real> Board<T> {
+impl<T: Real> BoardLoop<T> {
     /// A board looping at `rate_hz`, its force limited to `limit`,
     /// rendering nothing, sending telemetry every tick.
     #[must_use]
     pub fn new(rate_hz: u16, limit: ForceLimit<T>) -> Self {
         let rate = f64::from(rate_hz.max(1));
-        Board {
+        BoardLoop {
             renderer: Renderer::new(limit, T::of(RAMP_S)),
             has_model: false,
             staged_kind: 0,
@@ -108,7 +110,7 @@ impl<T: Real> Board<T> {
             refused: false,
             command: T::ZERO,
             clamped: false,
-            every: 1,
+            telemetry_period_ticks: 1,
             countdown: 0,
             tick: 0,
             rate_hz,
@@ -120,7 +122,7 @@ impl<T: Real> Board<T> {
                 reason = "a few hundred ticks"
             )]
             watchdog_ticks: libm::ceil(WATCHDOG_S * rate) as u32,
-            heard: false,
+            host_heard: false,
             longest_loop_us: 0,
             missed_ticks: 0,
         }
@@ -146,9 +148,9 @@ impl<T: Real> Board<T> {
     /// nothing staged, force zero until it commands.
     pub fn reset(&mut self) {
         let limit = self.renderer.limit();
-        *self = Board {
+        *self = BoardLoop {
             tick: self.tick,
-            ..Board::new(self.rate_hz, limit)
+            ..BoardLoop::new(self.rate_hz, limit)
         };
     }
 
@@ -156,7 +158,7 @@ impl<T: Real> Board<T> {
     /// watchdog).
     pub fn receive(&mut self, message: &Message) {
         self.quiet_ticks = 0;
-        self.heard = true;
+        self.host_heard = true;
         match *message {
             Message::Command { force_n, .. } => {
                 let f = T::of(f64::from(force_n));
@@ -206,7 +208,7 @@ impl<T: Real> Board<T> {
             }
             Message::Clear { render } => self.queue(Pending::Clear { render }),
             Message::SetTelemetry { every } => {
-                self.every = every;
+                self.telemetry_period_ticks = every;
                 self.countdown = 0;
             }
             _ => {}
@@ -301,9 +303,9 @@ impl<T: Real> Board<T> {
         };
         let vibration = if watchdog { T::ZERO } else { out.vibration };
         self.tick = self.tick.wrapping_add(1);
-        let telemetry = if self.every > 0 && self.countdown == 0 {
+        let telemetry = if self.telemetry_period_ticks > 0 && self.countdown == 0 {
             let mut flags = 0;
-            if watchdog && self.heard {
+            if watchdog && self.host_heard {
                 flags |= status::WATCHDOG;
             }
             if self.clamped && !self.has_model {
@@ -336,8 +338,8 @@ impl<T: Real> Board<T> {
         } else {
             None
         };
-        if self.every > 0 {
-            self.countdown = (self.countdown + 1) % self.every;
+        if self.telemetry_period_ticks > 0 {
+            self.countdown = (self.countdown + 1) % self.telemetry_period_ticks;
         }
         Drive {
             force_n: force,
@@ -366,7 +368,7 @@ pub struct Apparatus {
 /// The wire protocol v2 side of firmware that renders on board, sans-IO:
 /// what the device emulator's `--on-board` mode and the microcontroller
 /// firmware run. It answers `Hello` with `Capabilities` and `OnBoard`
-/// (and starts the [`Board`] afresh), hands every other message to the
+/// (and starts the [`BoardLoop`] afresh), hands every other message to the
 /// board, and streams the board's `Telemetry` and a `LoopReport` every
 /// [`REPORT_EVERY_S`] while a host is there: from its `Hello` until it has
 /// sent nothing for [`HOST_GONE_S`]. Before the first `Hello` and after a
@@ -374,7 +376,7 @@ pub struct Apparatus {
 /// not fill it).
 #[derive(Debug, Clone)]
 pub struct Firmware<T: Real> {
-    board: Board<T>,
+    board: BoardLoop<T>,
     apparatus: Apparatus,
     /// Ticks since the host's last frame; `None`: no host.
     host_quiet: Option<u32>,
@@ -394,7 +396,7 @@ impl<T: Real> Firmware<T> {
         )]
         let ticks = |s: f64| libm::ceil(s * rate) as u32;
         Firmware {
-            board: Board::new(rate_hz, limit),
+            board: BoardLoop::new(rate_hz, limit),
             apparatus,
             host_quiet: None,
             gone_ticks: ticks(HOST_GONE_S),
@@ -443,7 +445,7 @@ impl<T: Real> Firmware<T> {
         self.board.note_loop(loop_us, missed);
     }
 
-    /// One loop tick at the sensed `input` ([`Board::tick`]); `send` gets
+    /// One loop tick at the sensed `input` ([`BoardLoop::tick`]); `send` gets
     /// the telemetry and loop reports due. Returns the force and vibration
     /// to output.
     pub fn tick(
@@ -510,7 +512,7 @@ mod tests {
     #[test]
     fn an_uploaded_model_renders_as_the_core_does_from_the_next_tick() {
         let params = ModelParams::default_for("stick-slip-tactile").unwrap();
-        let mut board = Board::<f32>::new(5000, ForceLimit::default());
+        let mut board = BoardLoop::<f32>::new(5000, ForceLimit::default());
         let mut messages = heapless_vec();
         upload(&params, 7, |m| messages.push(m));
         assert_eq!(messages.len(), 4, "11 values: 3 uploads and a select");
@@ -546,8 +548,8 @@ mod tests {
     #[test]
     fn a_resend_of_the_model_in_effect_restarts_nothing() {
         let params = ModelParams::default_for("stick-slip-tactile").unwrap();
-        let mut resent = Board::<f32>::new(5000, ForceLimit::default());
-        let mut once = Board::<f32>::new(5000, ForceLimit::default());
+        let mut resent = BoardLoop::<f32>::new(5000, ForceLimit::default());
+        let mut once = BoardLoop::<f32>::new(5000, ForceLimit::default());
         upload(&params, 3, |m| resent.receive(&m));
         upload(&params, 3, |m| once.receive(&m));
         for k in 0..3000_u16 {
@@ -582,7 +584,7 @@ mod tests {
     #[test]
     fn selects_arriving_together_take_effect_one_a_tick_in_order() {
         let params = ModelParams::default_for("karnopp").unwrap();
-        let mut board = Board::<f32>::new(5000, ForceLimit::default());
+        let mut board = BoardLoop::<f32>::new(5000, ForceLimit::default());
         upload(&params, 1, |m| board.receive(&m));
         for _ in 0..300 {
             board.tick(input(0.01, 0.1), false, false);
@@ -620,7 +622,7 @@ mod tests {
         let params = ModelParams::default_for("karnopp").unwrap();
         let mut messages = heapless_vec();
         upload(&params, 1, |m| messages.push(m));
-        let mut board = Board::<f32>::new(1000, ForceLimit::default());
+        let mut board = BoardLoop::<f32>::new(1000, ForceLimit::default());
         // The first part lost.
         for m in &messages[1..] {
             board.receive(m);
@@ -635,7 +637,7 @@ mod tests {
         assert_eq!(render, 0);
         // A value changed in transit (the frame CRC would catch it; the
         // select's check does too).
-        let mut board = Board::<f32>::new(1000, ForceLimit::default());
+        let mut board = BoardLoop::<f32>::new(1000, ForceLimit::default());
         for m in messages.iter() {
             let mut m = *m;
             if let Message::Upload { values, .. } = &mut m {
@@ -652,14 +654,14 @@ mod tests {
         let viscous = ModelParams::Viscous(ViscousParams {
             damping_n_s_m: 20.0,
         });
-        let mut board = Board::<f32>::new(1000, ForceLimit::default());
+        let mut board = BoardLoop::<f32>::new(1000, ForceLimit::default());
         upload(&viscous, 1, |m| board.receive(&m));
         let forces: [f32; 40] =
             core::array::from_fn(|_| force(board.tick(input(0.0, 0.1), false, false).telemetry));
         assert!(forces[20] < -0.5, "rendering: {}", forces[20]);
         assert_eq!(forces[21..], [0.0; 19], "{forces:?}");
         // Force-only: a command above the limit is clamped, then silence.
-        let mut board = Board::<f32>::new(1000, ForceLimit::new(5.0).unwrap());
+        let mut board = BoardLoop::<f32>::new(1000, ForceLimit::new(5.0).unwrap());
         board.receive(&Message::Command {
             seq: 1,
             force_n: 50.0,
@@ -679,7 +681,7 @@ mod tests {
 
     #[test]
     fn telemetry_comes_every_nth_tick() {
-        let mut board = Board::<f32>::new(1000, ForceLimit::default());
+        let mut board = BoardLoop::<f32>::new(1000, ForceLimit::default());
         board.receive(&Message::SetTelemetry { every: 4 });
         let sent = (0..100)
             .filter(|_| {

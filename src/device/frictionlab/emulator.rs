@@ -14,7 +14,7 @@
 //! device: to a host that says `Hello` in version 2 it states its on-board
 //! models (all of them, in `f32`, at [`ON_BOARD_RATE_HZ`]) and renders the
 //! models the host uploads itself, through the core's
-//! [`Board`](frictionlab_core::onboard::Board), streaming `Telemetry`. A
+//! [`BoardLoop`](frictionlab_core::onboard::BoardLoop), streaming `Telemetry`. A
 //! host speaking version 1 gets the version 1 device.
 //!
 //! The shell: [`open`] finds the port for a path (an existing port, or a new

@@ -3,7 +3,7 @@
 //! the vendor's ([`pantograph`]); [`emulator`] is a board we ship for tests
 //! and for trying without hardware.
 //!
-//! [`Board`] is the backend: it resets and sets the board up when the port
+//! [`Haply2Diy`] is the backend: it resets and sets the board up when the port
 //! opens (and again when it reopens), sends one torque frame per loop tick
 //! and reads the angles each one is answered with. Forces become torques
 //! through the Jacobian at the last angles read (`τ = Jᵀ f`), scaled down
@@ -66,7 +66,7 @@ fn check(target: &str) -> Result<(), String> {
 fn open(target: &str, settings: &super::Settings) -> Result<Box<dyn Backend>, String> {
     check(target)?;
     let config = Config::with(&settings.set)?;
-    Ok(Box::new(Board::new(Path::new(target), config)))
+    Ok(Box::new(Haply2Diy::new(Path::new(target), config)))
 }
 
 /// Serial ports that may be a 2DIY: Arduino Due-class boards (the M3
@@ -179,7 +179,7 @@ impl Config {
 }
 
 /// A 2DIY on a serial port.
-pub struct Board {
+pub struct Haply2Diy {
     config: Config,
     force_limit_n: f64,
     transport: Transport,
@@ -197,19 +197,19 @@ pub struct Board {
     bytes: [u8; 256],
 }
 
-impl std::fmt::Debug for Board {
+impl std::fmt::Debug for Haply2Diy {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Board")
+        f.debug_struct("Haply2Diy")
             .field("transport", &self.transport)
             .finish_non_exhaustive()
     }
 }
 
-impl Board {
+impl Haply2Diy {
     /// The board at `path` (opened on the first tick, reopened after).
     #[must_use]
     pub fn new(path: &Path, config: Config) -> Self {
-        Board {
+        Haply2Diy {
             force_limit_n: config.force_limit_n(),
             config,
             transport: Transport::new(path),
@@ -261,7 +261,7 @@ impl Board {
     }
 }
 
-impl Backend for Board {
+impl Backend for Haply2Diy {
     fn capabilities(&self) -> Capabilities {
         Capabilities {
             axes: 2,
@@ -398,7 +398,7 @@ mod tests {
 
     #[test]
     fn torques_are_zero_before_angles_and_scaled_to_the_limit_after() {
-        let mut b = Board::new(Path::new("/nonexistent"), Config::vendor(3));
+        let mut b = Haply2Diy::new(Path::new("/nonexistent"), Config::vendor(3));
         assert_eq!(b.torques_for([1.0, 1.0, 0.0]), [0.0; 2]);
         b.pose = b.config.origin_pose();
         let t = b.torques_for([50.0, 0.0, 0.0]);

@@ -231,7 +231,7 @@ fn display_order<K: Holds<Magnitude>>(designs: &[K::Design]) -> Vec<String> {
 impl StudyKind for Magnitude {
     type Design = MagnitudeDesign;
     type Trial = MagnitudeTrial;
-    type Live = Explore;
+    type Live = Estimate;
     type Data = MagnitudeData;
 
     const COLUMNS: &'static [&'static str] = &[
@@ -415,11 +415,11 @@ impl StudyKind for Magnitude {
         trial: &MagnitudeTrial,
         now: Time,
         out: &mut VecDeque<Action<K>>,
-    ) -> Explore {
+    ) -> Estimate {
         let time = Exploration::from(now, trial.exploration_s);
         out.push_back(Action::Render(Some(trial.model.clone())));
         out.push_back(Action::Show(Screen::Explore { until: time.until }));
-        Explore {
+        Estimate {
             display: trial.display.clone(),
             stimulus: trial.stimulus.clone(),
             time,
@@ -444,14 +444,14 @@ impl StudyKind for Magnitude {
 
 /// The live state; `time` asks the question when the exploration is over.
 #[derive(Debug, Clone)]
-pub struct Explore {
+pub struct Estimate {
     display: String,
     stimulus: Level,
     time: Exploration,
     magnitude: Option<f64>,
 }
 
-impl LiveTrial for Explore {
+impl LiveTrial for Estimate {
     type Data = MagnitudeData;
 
     fn timeout(&self) -> Option<Time> {

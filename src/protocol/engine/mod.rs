@@ -1,6 +1,8 @@
-//! The session engine: a sans-IO state machine that runs a [`Plan`].
+//! The session engine: a sans-IO state machine that presents a session's
+//! trials, as its [`TrialSource`] gives them (a fixed [`Plan`], or an
+//! adaptive source that chooses each trial from the answers so far).
 //!
-//! The session driver (`crate::session`) calls [`Engine::handle`] with the
+//! The session (`crate::session`) calls [`Engine::handle`] with the
 //! current session time and an [`Input`], then drains [`Engine::poll`] for
 //! [`Action`]s and carries them out: load a friction model, show or ask
 //! something, write a trial record. The engine reads no clock, touches no

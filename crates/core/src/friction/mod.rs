@@ -1,4 +1,4 @@
-//! The friction core: every friction model of the three studies.
+//! The friction core: every friction model the studies use.
 //!
 //! # Conventions
 //! - SI units everywhere: metres, seconds, newtons, kilograms.
