@@ -103,7 +103,7 @@ for script in "$work"/blocks/*.sh; do
 set -eEo pipefail
 __at() { __where=$1; printf '\n+ [%s] %s\n' "$1" "$2"; }
 trap 'rc=$?; echo "FAILED: [$__where] exit $rc" >&2; exit $rc' ERR
-trap 'jobs -p | xargs -r kill 2>/dev/null; wait 2>/dev/null || true' EXIT
+trap 'rc=$?; trap - ERR; jobs -p | xargs -r kill 2>/dev/null || true; wait 2>/dev/null || true; exit $rc' EXIT
 EOF
         cat "$script"
     } >"$script.run"
