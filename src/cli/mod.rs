@@ -84,7 +84,7 @@ struct GuiArgs {
 #[derive(Debug, Clone, Default, clap::Args)]
 struct LslArgs {
     /// Publish the session on the Lab Streaming Layer: a marker stream of
-    /// its events and the device's stream (README, "Recording with LSL").
+    /// its events and the device's stream (docs/guide/lsl.md).
     #[arg(long)]
     lsl: bool,
     /// liblsl to load (default: FRICTIONLAB_LSL_LIB, then the system's
@@ -270,7 +270,7 @@ struct RunArgs {
     #[arg(long, default_value = "sim", value_parser = parse_device)]
     device: DeviceChoice,
     /// A device setting, `NAME=VALUE` (repeatable): the track and its wall,
-    /// a device's calibration (README, "Devices").
+    /// a device's calibration (docs/guide/devices.md).
     #[arg(long = "device-set", value_name = "NAME=VALUE")]
     device_set: Vec<String>,
     /// Who answers: `gui` (a person) or `sim` (a simulated participant).
