@@ -191,7 +191,7 @@ pub enum SessionError {
     /// The device answered, but the hand stayed off the track; no session
     /// was started (nothing written).
     #[error(
-        "the hand stayed {:.1} mm off the track for {timeout_s} s (a session starts with it within {:.0} mm; see README, Devices); no session was started",
+        "the hand stayed {:.1} mm off the track for {timeout_s} s (a session starts with it within {:.0} mm; see docs/guide/devices.md); no session was started",
         off_m * 1e3,
         ON_TRACK_M * 1e3
     )]
