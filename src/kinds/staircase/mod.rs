@@ -1,4 +1,5 @@
-//! Issue 13's toy fourth kind, compiled for tests only: a 1-up-1-down
+//! The template for a new kind (docs/adding-a-kind.md), compiled for tests
+//! only: a 1-up-1-down
 //! staircase over the comparison's static coefficient mu_s. Each trial
 //! pairs a stick-slip reference with a comparison whose mu_s exceeds the
 //! reference's by the current difference, in an order drawn per trial; the
@@ -9,7 +10,8 @@
 //! It reuses the paired comparison's live trial and screens, so it needs no
 //! engine, participant or GUI code. Its trials come from its own
 //! [`TrialSource`], whose state (difference, reversals) is rebuilt from the
-//! logged answers on resume. It has no analysis entry.
+//! logged answers on resume. Its analysis ([`analysis`]) gives each
+//! participant's threshold and their mean.
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -19,7 +21,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use crate::analysis::{AnalysisEntry, KindAnalysis};
+use crate::analysis::{AnalysisEntry, KindAnalysis, Section};
 use crate::friction::ModelParams;
 use crate::kinds::magnitude::{Stimulus, stimulus_model};
 use crate::kinds::paired::{Compare, Paired, PairedData, PairedTrial};
@@ -30,6 +32,8 @@ use crate::protocol::load::Walk;
 use crate::protocol::plan::PlannedTrial;
 use crate::protocol::{Condition, Protocol};
 use crate::time::Time;
+
+pub mod analysis;
 
 /// The toy staircase kind.
 #[derive(Debug)]
@@ -306,10 +310,25 @@ impl<K: Holds<Staircase>> TrialSource<K> for Source {
     }
 }
 
-/// No analysis: the toy kind exists to show the seam.
+/// Each participant's threshold and their mean ([`analysis`]); no report
+/// section beyond the tables.
 impl KindAnalysis for Staircase {
     fn analysis<K: Holds<Self>>() -> Option<AnalysisEntry<K>> {
-        None
+        Some(AnalysisEntry {
+            marker: "delta_mu_s",
+            unread: &["first", "second", "choice", "chosen"],
+            optional: &[],
+            counts_aborted: false,
+            run: |rows, _| {
+                let t = analysis::analyze(rows)?;
+                Ok(Section {
+                    html: String::new(),
+                    summary: t.summary,
+                    notes: t.notes,
+                    tables: t.tables,
+                })
+            },
+        })
     }
 }
 
