@@ -14,6 +14,7 @@
 //! non-positive magnitudes) is a [`Problem`] naming the file (with
 //! `line:column` when known) or folder.
 
+pub mod counted;
 pub mod report;
 pub mod stats;
 
@@ -154,6 +155,9 @@ pub struct AnalysisEntry<K: Kinds> {
     /// The analysis of the completed, non-practice rows of this kind, with
     /// its [`Context`].
     pub run: RunAnalysis<K>,
+    /// Which of its summary's statistics are tests (and intervals) that
+    /// power planning counts.
+    pub counted: counted::CountStatistics,
 }
 
 /// A kind's analysis of its rows ([`AnalysisEntry::run`]).

@@ -54,7 +54,8 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
-use crate::analysis::{Scope, Tables, analyze_tables};
+use crate::analysis::counted::KindCounted;
+use crate::analysis::{AnalysedKinds, Scope, Tables, analyze_tables};
 use crate::kinds::{Protocol, ReadLog, Registry};
 use crate::participant::Population;
 use crate::problem::Problem;
@@ -310,79 +311,17 @@ pub struct StudyRecord {
     pub ci_width: BTreeMap<String, Option<f64>>,
 }
 
-/// A test's name and value, from an analysis summary.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Outcomes {
-    /// p values by test.
-    pub p: BTreeMap<String, Option<f64>>,
-    /// CI widths by statistic.
-    pub ci_width: BTreeMap<String, Option<f64>>,
-}
+/// The tests and intervals power counts, from an analysis summary.
+pub type Outcomes = crate::analysis::counted::Counted;
 
-/// The tests power counts, read from an `analyze` summary (module docs).
+/// The tests power counts, read from an `analyze` summary: each kind's
+/// analysis entry names its own ([`crate::analysis::AnalysisEntry::counted`]).
 #[must_use]
 pub fn outcomes(summary: &Value) -> Outcomes {
     let mut out = Outcomes::default();
-    let mut p = |name: String, v: &Value| {
-        out.p.insert(name, v.as_f64());
-    };
-    let key = |v: &Value| {
-        if v.is_null() {
-            "all".to_owned()
-        } else {
-            v.to_string()
-        }
-    };
-    if let Some(s) = summary.get("paired_comparison") {
-        p("paired_comparison.binomial_p".into(), &s["binomial_p"]);
-    }
-    if let Some(s) = summary.get("magnitude_estimation") {
-        for c in s["correlations"].as_array().into_iter().flatten() {
-            p(
-                format!(
-                    "magnitude_estimation.correlations[delta_mu={}].p",
-                    key(&c["delta_mu"])
-                ),
-                &c["p"],
-            );
-        }
-        if !s["display_effect"].is_null() {
-            p(
-                "magnitude_estimation.display_effect.p".into(),
-                &s["display_effect"]["p"],
-            );
-        }
-    }
-    if let Some(s) = summary.get("fitts") {
-        for (list, tests) in [
-            ("quadrants", &["time_sign_p", "accuracy_sign_p"][..]),
-            ("quadrants_error_count", &["accuracy_sign_p"][..]),
-        ] {
-            for q in s[list].as_array().into_iter().flatten() {
-                for t in tests {
-                    p(
-                        format!(
-                            "fitts.{list}[condition={},id_bits={}].{t}",
-                            q["condition"].as_str().unwrap_or("?"),
-                            key(&q["id_bits"])
-                        ),
-                        &q[*t],
-                    );
-                }
-            }
-        }
-    }
-    if let Some(s) = summary.get("discrimination") {
-        for l in s["levels"].as_array().into_iter().flatten() {
-            let ci = &l["weber_mean_ci"];
-            let width = ci[1].as_f64().zip(ci[0].as_f64()).map(|(hi, lo)| hi - lo);
-            out.ci_width.insert(
-                format!(
-                    "discrimination.levels[level={}].weber_mean_ci",
-                    key(&l["level"])
-                ),
-                width,
-            );
+    for (kind, entry) in <Registry as AnalysedKinds>::analyses() {
+        if let (Some(entry), Some(s)) = (entry, summary.get(kind)) {
+            (entry.counted)(s, &mut KindCounted::new(kind, &mut out));
         }
     }
     out

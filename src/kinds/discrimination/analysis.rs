@@ -41,6 +41,7 @@ use rand_chacha::ChaCha8Rng;
 use serde_json::{Value, json};
 
 use super::{Comparison, DiscriminationDesign};
+use crate::analysis::counted::{KindCounted, key};
 use crate::analysis::{Rows, Table, num, opt, text};
 use crate::participant::id_hash;
 use crate::problem::Problem;
@@ -400,4 +401,15 @@ fn group_summary(design: &DiscriminationDesign, tracks: &[TrackFit]) -> Vec<Valu
             })
         })
         .collect()
+}
+
+/// What power counts: each level's mean Weber fraction, by its interval's
+/// width.
+pub fn counted(s: &Value, out: &mut KindCounted<'_>) {
+    for l in s["levels"].as_array().into_iter().flatten() {
+        out.interval(
+            &format!("levels[level={}].weber_mean_ci", key(&l["level"])),
+            &l["weber_mean_ci"],
+        );
+    }
 }

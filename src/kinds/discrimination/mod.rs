@@ -1045,6 +1045,7 @@ impl KindAnalysis for Discrimination {
             unread: &["first", "second", "choice", "chosen"],
             optional: &[],
             counts_aborted: false,
+            counted: analysis::counted,
             run: |rows, context| {
                 let design = designs_of::<Self, K>(context.designs).next();
                 let intervals = context.scope == Scope::Report;

@@ -36,6 +36,7 @@ use std::collections::BTreeMap;
 
 use serde_json::{Value, json};
 
+use crate::analysis::counted::{self, KindCounted};
 use crate::analysis::stats::{binomial_two_sided, effective_throughput, linear_fit, mean};
 use crate::analysis::{Cell, Rows, Table, num, opt, text};
 use crate::problem::Problem;
@@ -527,4 +528,25 @@ pub fn analyze(rows: &Rows) -> Result<Fitts, Problem> {
         quadrants,
         mt_by_id,
     })
+}
+
+/// What power counts: each quadrant count's sign tests.
+pub fn counted(s: &Value, out: &mut KindCounted<'_>) {
+    for (list, tests) in [
+        ("quadrants", &["time_sign_p", "accuracy_sign_p"][..]),
+        ("quadrants_error_count", &["accuracy_sign_p"][..]),
+    ] {
+        for q in s[list].as_array().into_iter().flatten() {
+            for t in tests {
+                out.test(
+                    &format!(
+                        "{list}[condition={},id_bits={}].{t}",
+                        q["condition"].as_str().unwrap_or("?"),
+                        counted::key(&q["id_bits"])
+                    ),
+                    &q[*t],
+                );
+            }
+        }
+    }
 }

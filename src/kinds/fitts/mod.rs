@@ -640,6 +640,7 @@ impl KindAnalysis for Fitts {
             ],
             optional: &["click_times_s", "click_x_m", "click_target_x_m", "click_hit"],
             counts_aborted: true,
+            counted: analysis::counted,
             run: |rows, context| {
                 let f = analysis::analyze(rows)?;
                 Ok(Section {

@@ -39,6 +39,7 @@ use std::collections::HashMap;
 
 use serde_json::{Value, json};
 
+use crate::analysis::counted::{KindCounted, key};
 use crate::analysis::stats::{GeoSummary, geometric_mean, linear_fit, log_summary, one_sample_t, pearson};
 use crate::analysis::{Cell, Rows, Table, num, opt, text};
 use crate::problem::Problem;
@@ -546,4 +547,17 @@ pub fn analyze(rows: &Rows, order: &[String]) -> Result<Magnitude, Problem> {
         displays,
         means,
     })
+}
+
+/// What power counts: each correlation's test and the display effect's.
+pub fn counted(s: &Value, out: &mut KindCounted<'_>) {
+    for c in s["correlations"].as_array().into_iter().flatten() {
+        out.test(
+            &format!("correlations[delta_mu={}].p", key(&c["delta_mu"])),
+            &c["p"],
+        );
+    }
+    if !s["display_effect"].is_null() {
+        out.test("display_effect.p", &s["display_effect"]["p"]);
+    }
 }

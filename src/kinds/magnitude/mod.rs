@@ -510,6 +510,7 @@ impl KindAnalysis for Magnitude {
             unread: &["response_time_s", "parameter", "level"],
             optional: &["parameter", "level"],
             counts_aborted: false,
+            counted: analysis::counted,
             run: |rows, context| {
                 // Seed 001's form (no level), and the generic form's
                 // scalings; a folder may hold both.

@@ -10,6 +10,7 @@ use std::collections::BTreeMap;
 
 use serde_json::{Value, json};
 
+use crate::analysis::counted::KindCounted;
 use crate::analysis::stats::binomial_two_sided;
 use crate::analysis::{Rows, Table, num, opt, text};
 use crate::problem::Problem;
@@ -103,4 +104,9 @@ pub fn analyze(rows: &Rows) -> Result<Paired, Problem> {
         notes,
         counts: list,
     })
+}
+
+/// What power counts: the binomial test.
+pub fn counted(s: &Value, out: &mut KindCounted<'_>) {
+    out.test("binomial_p", &s["binomial_p"]);
 }

@@ -326,6 +326,7 @@ impl KindAnalysis for Paired {
             unread: &[],
             optional: &[],
             counts_aborted: false,
+            counted: analysis::counted,
             run: |rows, context| {
                 let p = analysis::analyze(rows)?;
                 Ok(Section {

@@ -8,6 +8,7 @@ use std::collections::BTreeMap;
 
 use serde_json::{Value, json};
 
+use crate::analysis::counted::KindCounted;
 use crate::analysis::stats::{mean, one_sample_t};
 use crate::analysis::{Rows, Table, opt, text};
 use crate::problem::Problem;
@@ -106,6 +107,12 @@ pub fn analyze(rows: &Rows) -> Result<Thresholds, Problem> {
     })
 }
 
+
+/// What power counts: the mean threshold, by its interval's width.
+pub fn counted(s: &Value, out: &mut KindCounted<'_>) {
+    out.interval("threshold_mean_ci", &s["threshold_mean_ci"]);
+}
+
 #[cfg(test)]
 mod tests {
     use super::reversal_mean;
@@ -114,7 +121,8 @@ mod tests {
     fn the_threshold_is_the_mean_of_the_reversal_points() {
         // Down, down, up (reversal at 0.2), up, down (reversal at 0.4).
         let track = [0.4, 0.3, 0.2, 0.3, 0.4, 0.3];
-        assert_eq!(reversal_mean(&track), Some(0.30000000000000004));
+        let mean = reversal_mean(&track).unwrap();
+        assert!((mean - 0.3).abs() < 1e-15, "{mean}");
         assert_eq!(reversal_mean(&[0.4, 0.3, 0.2]), None);
     }
 }

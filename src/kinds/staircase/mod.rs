@@ -319,6 +319,7 @@ impl KindAnalysis for Staircase {
             unread: &["first", "second", "choice", "chosen"],
             optional: &[],
             counts_aborted: false,
+            counted: analysis::counted,
             run: |rows, _| {
                 let t = analysis::analyze(rows)?;
                 Ok(Section {
