@@ -4,6 +4,7 @@
 use eframe::egui;
 use egui_plot::{Legend, Line, Plot, PlotPoints, Points};
 
+use crate::kinds::Registry;
 use crate::session::LiveSession;
 
 /// Position (mm), force (N) and vibrotactile envelope over the last seconds, on
@@ -52,11 +53,11 @@ const TRACK_COLOURS: [egui::Color32; 6] = [
     egui::Color32::from_rgb(160, 140, 230),
 ];
 
-/// A discrimination session's adaptive tracks: each reference level's
-/// difference, trial by trial, the answers marked (filled: correct).
-/// Nothing for other kinds, or before the first answer.
+/// A session's adaptive tracks (a kind's, [`Registry::tracks`]): each
+/// track's difference, trial by trial, the answers marked (filled:
+/// correct). Nothing for a kind without tracks, or before the first answer.
 pub(super) fn tracks(ui: &mut egui::Ui, live: &LiveSession) {
-    let tracks = crate::kinds::discrimination::tracks(live.engine().history());
+    let tracks = Registry::tracks(live.engine().history());
     if tracks.is_empty() {
         return;
     }
@@ -85,7 +86,7 @@ pub(super) fn tracks(ui: &mut egui::Ui, live: &LiveSession) {
                     .filter(|(_, a)| a.1)
                     .map(|(i, a)| at(i, a.0))
                     .collect();
-                let name = format!("level {}", t.level);
+                let name = t.name.clone();
                 let colour = TRACK_COLOURS[t.track % TRACK_COLOURS.len()];
                 plot.line(Line::new(name.clone(), PlotPoints::from(line)).color(colour));
                 plot.points(

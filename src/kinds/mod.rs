@@ -32,7 +32,9 @@ use serde_json::Value;
 use crate::analysis::{AnalysedKinds, AnalysisEntry, KindAnalysis};
 use crate::protocol::check::Checks;
 use crate::protocol::engine::{self, Input, TrialSource};
-use crate::protocol::kind::{Block, Holds, KindInfo, Kinds, LiveTrial, Next, Quality, StudyKind};
+use crate::protocol::kind::{
+    Block, Holds, KindInfo, Kinds, LiveTrial, Next, Quality, StudyKind, TrackAnswers,
+};
 use crate::protocol::load::Walk;
 use crate::protocol::{self, plan};
 use crate::time::Time;
@@ -145,6 +147,20 @@ macro_rules! kinds {
             #[must_use]
             pub fn loop_rate_hz(&self) -> f64 {
                 Registry::loop_rate_hz(self)
+            }
+        }
+
+        impl Registry {
+            /// The adaptive tracks of a session's records so far, each
+            /// kind's ([`StudyKind::tracks`]): the experimenter's live plot.
+            #[must_use]
+            pub fn tracks(history: &[TrialRecord]) -> Vec<TrackAnswers> {
+                let mut out = Vec::new();
+                $(
+                    $(#[cfg($cfg)])?
+                    out.extend(<$module::$kind as StudyKind>::tracks::<Registry>(history));
+                )*
+                out
             }
         }
 

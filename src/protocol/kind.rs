@@ -31,7 +31,7 @@ use serde_json::Value;
 
 use super::Protocol;
 use super::check::Checks;
-use super::engine::{Action, Input, Question, TrialSource};
+use super::engine::{Action, Input, Question, TrialRecord, TrialSource};
 use super::load::Walk;
 use super::plan::resolve;
 use crate::time::Time;
@@ -267,6 +267,13 @@ pub trait StudyKind: Sized + 'static {
         Quality::Friction
     }
 
+    /// The adaptive tracks of a session's records so far (none for
+    /// another kind's records), for the experimenter's live plot; by
+    /// default none.
+    fn tracks<K: Holds<Self>>(_history: &[TrialRecord<K>]) -> Vec<TrackAnswers> {
+        Vec::new()
+    }
+
     /// The haptic loop rate the trial's models need, Hz.
     fn loop_rate_hz(trial: &Self::Trial) -> f64;
 
@@ -277,6 +284,19 @@ pub trait StudyKind: Sized + 'static {
 
     /// The data-CSV cells of `data`, one per [`StudyKind::COLUMNS`] entry.
     fn row(data: &Self::Data) -> Vec<String>;
+}
+
+/// One adaptive track's answers so far, for the experimenter's live plot
+/// ([`StudyKind::tracks`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrackAnswers {
+    /// The track (its index in the session).
+    pub track: usize,
+    /// Its name in the plot's legend (a discrimination track's reference
+    /// level).
+    pub name: String,
+    /// `(difference, correct)` of each completed trial, in order.
+    pub answers: Vec<(f64, bool)>,
 }
 
 /// One block of a fixed plan before ordering: its name, whether it is

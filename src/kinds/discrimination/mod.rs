@@ -46,7 +46,7 @@ use crate::friction::ModelParams;
 use crate::kinds::paired::{Compare, Paired, PairedData, PairedTrial};
 use crate::protocol::check::{Checks, MAX_TRIALS};
 use crate::protocol::engine::{Action, Choice, Input, Status, TrialRecord, TrialSource};
-use crate::protocol::kind::{Holds, Kinds, LiveTrial, Next, Quality, StudyKind};
+use crate::protocol::kind::{TrackAnswers, Holds, Kinds, LiveTrial, Next, Quality, StudyKind};
 use crate::protocol::load::Walk;
 use crate::protocol::plan::PlannedTrial;
 use crate::protocol::{Condition, Protocol};
@@ -634,6 +634,10 @@ impl StudyKind for Discrimination {
         t.judged
     }
 
+    fn tracks<K: Holds<Self>>(history: &[TrialRecord<K>]) -> Vec<TrackAnswers> {
+        tracks(history)
+    }
+
     fn loop_rate_hz(t: &DiscriminationTrial) -> f64 {
         Paired::loop_rate_hz(&t.pair)
     }
@@ -870,17 +874,6 @@ struct Memo {
     next: Vec<Option<f64>>,
 }
 
-/// One track's answers so far, for the experimenter's live view.
-#[derive(Debug, Clone, PartialEq)]
-pub struct TrackAnswers {
-    /// The track (index of its level).
-    pub track: usize,
-    /// Its reference level.
-    pub level: f64,
-    /// `(difference, correct)` of each completed trial, in order.
-    pub answers: Vec<(f64, bool)>,
-}
-
 /// The tracks of a discrimination session's records (none for another
 /// kind's), by track index.
 #[must_use]
@@ -901,7 +894,7 @@ pub fn tracks<K: Holds<Discrimination>>(history: &[TrialRecord<K>]) -> Vec<Track
         } else {
             out.push(TrackAnswers {
                 track: d.track,
-                level: d.level,
+                name: format!("level {}", d.level),
                 answers: vec![(d.difference, correct)],
             });
         }

@@ -27,7 +27,7 @@ use crate::kinds::magnitude::{Stimulus, stimulus_model};
 use crate::kinds::paired::{Compare, Paired, PairedData, PairedTrial};
 use crate::protocol::check::{Checks, MAX_TRIALS};
 use crate::protocol::engine::{Action, Input, Status, TrialRecord, TrialSource};
-use crate::protocol::kind::{Holds, Kinds, LiveTrial, Next, StudyKind};
+use crate::protocol::kind::{Holds, Kinds, LiveTrial, Next, StudyKind, TrackAnswers};
 use crate::protocol::load::Walk;
 use crate::protocol::plan::PlannedTrial;
 use crate::protocol::{Condition, Protocol};
@@ -180,6 +180,25 @@ impl StudyKind for Staircase {
 
     fn loop_rate_hz(t: &StaircaseTrial) -> f64 {
         Paired::loop_rate_hz(&t.pair)
+    }
+
+    /// The one track: each completed trial's difference, marked when the
+    /// comparison was picked.
+    fn tracks<K: Holds<Self>>(history: &[TrialRecord<K>]) -> Vec<TrackAnswers> {
+        let answers: Vec<(f64, bool)> = history
+            .iter()
+            .filter(|r| !r.requeued && r.status == Status::Completed)
+            .filter_map(|r| K::data_of(&r.data))
+            .map(|d| (d.delta_mu_s, d.answer.chosen.as_deref() == Some("comparison")))
+            .collect();
+        if answers.is_empty() {
+            return Vec::new();
+        }
+        vec![TrackAnswers {
+            track: 0,
+            name: "difference in mu_s".to_owned(),
+            answers,
+        }]
     }
 
     fn start<K: Kinds>(t: &StaircaseTrial, now: Time, out: &mut VecDeque<Action<K>>) -> Track {
@@ -486,6 +505,11 @@ mod tests {
         let log = read_log::<crate::kinds::Registry>(&log_path(dir.path())).unwrap();
         assert!(log.ended);
         assert_eq!(log.header.planned_trials, 0, "unknown in advance");
+        // The experimenter's live plot gets the same track, through the
+        // registry (the window names no kind).
+        let plotted = crate::kinds::Registry::tracks(&log.trials);
+        assert_eq!(plotted.len(), 1);
+        assert_eq!(plotted[0].answers, track);
         let csv = csv(dir.path());
         let mut lines = csv.lines();
         assert!(
