@@ -726,6 +726,28 @@ fn resume_command(args: &RunArgs) -> String {
     if args.responder == ResponderChoice::Sim {
         words.extend(["--responder".to_owned(), "sim".to_owned()]);
     }
+    // How it ran (no data depends on these, but a resume should run alike).
+    if args.device_timeout != super::DEFAULT_DEVICE_TIMEOUT_S {
+        words.extend([
+            "--device-timeout".to_owned(),
+            args.device_timeout.to_string(),
+        ]);
+    }
+    if args.pace != super::DEFAULT_PACE {
+        words.extend(["--pace".to_owned(), args.pace.to_string()]);
+    }
+    if args.lsl.lsl {
+        words.push("--lsl".to_owned());
+        if let Some(lib) = &args.lsl.lsl_lib {
+            words.extend([
+                "--lsl-lib".to_owned(),
+                shell_word(&lib.display().to_string()),
+            ]);
+        }
+        if args.lsl.lsl_wait > 0.0 {
+            words.extend(["--lsl-wait".to_owned(), args.lsl.lsl_wait.to_string()]);
+        }
+    }
     words.push("--resume".to_owned());
     words.join(" ")
 }

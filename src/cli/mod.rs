@@ -98,6 +98,12 @@ struct LslArgs {
     lsl_wait: f64,
 }
 
+/// `run --pace` when not given: real time.
+pub(crate) const DEFAULT_PACE: f64 = 1.0;
+
+/// `run --device-timeout` when not given, s.
+pub(crate) const DEFAULT_DEVICE_TIMEOUT_S: f64 = 10.0;
+
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Checks protocol files; exit 0 if all are valid.
@@ -283,14 +289,14 @@ struct RunArgs {
     #[arg(long)]
     resume: bool,
     /// Simulated time runs X times faster than real time (default 1).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = DEFAULT_PACE)]
     pace: f64,
     /// Counterbalancing index (default: participants already in the folder).
     #[arg(long)]
     participant_index: Option<u32>,
     /// With a device: give up (exit 3) after it has not answered for this
     /// long, s.
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, default_value_t = DEFAULT_DEVICE_TIMEOUT_S)]
     device_timeout: f64,
     #[command(flatten)]
     lsl: LslArgs,
