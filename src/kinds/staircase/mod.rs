@@ -9,7 +9,9 @@
 //! It reuses the paired comparison's live trial and screens, so it needs no
 //! engine, participant or GUI code. Its trials come from its own
 //! [`TrialSource`], whose state (difference, reversals) is rebuilt from the
-//! logged answers on resume. It has no analysis entry.
+//! logged answers on resume. It has no analysis entry, and so no results
+//! view (`view.rs`): were its object in a `summary.json`, the window would
+//! show it as a tree.
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -23,6 +25,8 @@ use crate::analysis::{AnalysisEntry, KindAnalysis};
 use crate::friction::ModelParams;
 use crate::kinds::magnitude::{Stimulus, stimulus_model};
 use crate::kinds::paired::{Compare, Paired, PairedData, PairedTrial};
+
+pub mod view;
 use crate::protocol::check::{Checks, MAX_TRIALS};
 use crate::protocol::engine::{Action, Input, Status, TrialRecord, TrialSource};
 use crate::protocol::kind::{Holds, Kinds, LiveTrial, Next, StudyKind};
