@@ -358,21 +358,37 @@ mod tests {
         h.get_by_label("regression: 3");
     }
 
-    /// A regression that is n/a (one ID tested) says so in its sentence.
+    /// A regression that is n/a (one ID tested) says so in its sentence;
+    /// lines without the IDs tested (no quadrants) say what they span.
     #[test]
     fn a_regression_that_is_n_a_says_why() {
+        let regression = |condition: &str, fit: Option<f64>| {
+            json!({"condition": condition, "intercept_s": fit, "slope_s_per_bit": fit,
+                "r2": fit, "n": 8})
+        };
         let h = shown(json!({"fitts": {
-            "regression": [{"condition": "baseline", "intercept_s": null,
-                "slope_s_per_bit": null, "r2": null, "n": 8}],
-            "throughput_bits_per_s": {"baseline": 3.6236},
+            "regression": [regression("baseline", None), regression("real", Some(0.5))],
+            "throughput_bits_per_s": {"baseline": 3.6236, "real": 2.0},
             "quadrants": [],
         }}));
         h.get_by_label(
             "baseline: regression n/a (fewer than two distinct IDs) (n = 8 tests); throughput 3.62 bits/s.",
         );
         h.get_by_label(
-            "The IDs tested are not in summary.json (no baseline condition): the lines run from 0 to 6 bits.",
+            "real: MT = 0.500 s + 0.500 s/bit × ID, r² = 0.50 (n = 8 tests); throughput 2.00 bits/s.",
         );
+        h.get_by_label(
+            "summary.json lists the IDs tested only with the quadrants (baseline and another condition): the lines run from 0 to 6 bits.",
+        );
+    }
+
+    /// A Fitts study with no test analysed (only the practice done) says
+    /// so.
+    #[test]
+    fn a_fitts_study_without_tests_says_so() {
+        let h = shown(json!({"fitts": {"regression": [], "quadrants": [],
+            "throughput_bits_per_s": {}, "tests": 0}}));
+        h.get_by_label("No condition to regress: 0 tests analysed.");
     }
 
     /// A summary that is not an object says so.

@@ -97,6 +97,12 @@ fn ids(summary: &At<'_>) -> Result<Vec<f64>, Missing> {
 pub fn sentences(summary: &At<'_>) -> Vec<Result<String, Missing>> {
     let mut out = Vec::new();
     match regressions(summary) {
+        Ok(rs) if rs.is_empty() => out.push(
+            summary
+                .get("tests")
+                .count()
+                .map(|n| format!("No condition to regress: {n} tests analysed.")),
+        ),
         Ok(rs) => out.extend(rs.iter().map(|r| {
             let tp = summary
                 .get("throughput_bits_per_s")
@@ -134,15 +140,22 @@ pub fn sentences(summary: &At<'_>) -> Vec<Result<String, Missing>> {
     out
 }
 
-/// The regression lines over the IDs tested.
+/// The regression lines over the IDs tested; nothing when no condition
+/// has one (its sentence says n/a).
 fn regression_figure(ui: &mut egui::Ui, rs: &[Regression], ids: &[f64]) {
-    // Without a baseline there are no per-ID entries to take the IDs from.
+    if rs
+        .iter()
+        .all(|r| r.intercept_s.is_none() || r.slope_s_per_bit.is_none())
+    {
+        return;
+    }
+    // The IDs are listed only with the per-ID quadrant entries.
     let (x0, x1) = if let (Some(&a), Some(&b)) = (ids.first(), ids.last()) {
         (a, b)
     } else {
         figures::problem(
             ui,
-            "The IDs tested are not in summary.json (no baseline condition): the lines run from 0 to 6 bits.",
+            "summary.json lists the IDs tested only with the quadrants (baseline and another condition): the lines run from 0 to 6 bits.",
         );
         (0.0, 6.0)
     };
