@@ -5,9 +5,10 @@
 #
 #   bash docs/screenshots.sh            # every picture
 #   bash docs/screenshots.sh builder    # the setup and builder pictures only
+#   bash docs/screenshots.sh results    # each kind's Results tab only
 #
 # FRICTIONLAB_BIN names a frictionlab binary to use instead of building
-# the release one.
+# the release one; SCREENSHOT_DISPLAY the X display to use (default :97).
 #
 # Needs: xvfb, imagemagick, xdotool (installed here with apt-get if missing).
 # Windows open at fixed places on a 1920x1080 screen (no window manager):
@@ -27,10 +28,13 @@ else
 fi
 out=docs/screenshots
 work=$(mktemp -d)
-export DISPLAY=:97
+export DISPLAY="${SCREENSHOT_DISPLAY:-:97}"
 Xvfb "$DISPLAY" -screen 0 1920x1080x24 >/dev/null 2>&1 &
 xvfb=$!
-trap 'pkill -f "$bin" || true; kill $xvfb 2>/dev/null || true; rm -rf "$work"' EXIT
+# The window (or session) the script last started, stopped by its pid.
+app=""
+stop() { if [ -n "$app" ]; then kill "$app" 2>/dev/null || true; wait "$app" 2>/dev/null || true; app=""; fi; }
+trap 'stop; kill $xvfb 2>/dev/null || true; rm -rf "$work"' EXIT
 sleep 1
 
 shot() { import -window root -crop "$2" "$out/$1.png"; }
@@ -41,20 +45,51 @@ click() { xdotool mousemove "$1" "$2" click 1; sleep "${3:-0.5}"; }
 focus() { xdotool windowfocus --sync "$(xdotool search --name "frictionlab: participant" | head -1)"; }
 type_text() { focus; xdotool type --delay 40 "$1"; sleep 0.3; }
 session() { # protocol file [seed]; the window opens with its session started
-    pkill -f "$bin" || true
+    stop
     sleep 0.5
     "$bin" run "protocols/$1" --participant "shot-${2:-7}" --out "$work/results" --responder gui \
         --seed "${2:-7}" >>"$work/gui.log" 2>&1 &
+    app=$!
     sleep 3
+}
+gui() { # results folder; the experimenter's window on it
+    stop
+    sleep 0.5
+    "$bin" gui --participant p01 --out "$1" >>"$work/gui.log" 2>&1 &
+    app=$!
+    sleep 3
+}
+results_view() { # protocol file, kind, participants: that study simulated,
+    # analysed from the Results tab, scrolled down to its figures
+    local dir="$work/sim-$2"
+    "$bin" simulate "protocols/$1" --participants "$3" --seed 1 --out "$dir" >>"$work/gui.log" 2>&1
+    gui "$dir"
+    click 177 52 1
+    click 38 "$(( 134 + 23 * $(ls "$dir/logs" | wc -l) ))" 0.5
+    for _ in $(seq 1 240); do [ -f "$dir/report/summary.json" ] && break; sleep 0.5; done
+    sleep 2
+    xdotool mousemove 500 600
+    for _ in $(seq 1 "$4"); do xdotool click 5; sleep 0.05; done
+    sleep 1
+    experimenter "results-$2"
 }
 answer() { click 1282 142 0.2; focus; xdotool key ctrl+a BackSpace; type_text "$1"; xdotool key Return; sleep 0.4; }
 stroke() { # the mouse drives the simulated hand back and forth
     for x in 1250 1700 1250 1700 1450; do xdotool mousemove "$x" 220; sleep 0.35; done
 }
 
+# Each kind's view in the Results tab (issue 45): a simulated study of its
+# shipped protocol, analysed from the window, its sentences and figures.
+if [ "$only" = all ] || [ "$only" = results ]; then
+    results_view paired-comparison.json paired_comparison 8 0
+    results_view magnitude-estimation.json magnitude_estimation 8 1
+    results_view fitts.json fitts 8 4
+    results_view discrimination.json discrimination 8 1
+fi
+if [ "$only" = results ]; then exit 0; fi
+
 # The experimenter's setup.
-"$bin" gui --participant p01 --out "$work/results" >>"$work/gui.log" 2>&1 &
-sleep 3
+gui "$work/results"
 experimenter experimenter-setup
 
 # The protocol builder: a shipped protocol as forms; then a new paired
@@ -128,10 +163,7 @@ both session-fitts-prompt
 
 # The Results tab over this script's results folder: every session and its
 # status, then the analysis the Analyze button runs.
-pkill -f "$bin" || true
-sleep 0.5
-"$bin" gui --participant p01 --out "$work/results" >>"$work/gui.log" 2>&1 &
-sleep 3
+gui "$work/results"
 click 177 52 1
 experimenter experimenter-results
 click 38 "$(( 134 + 23 * $(ls "$work/results/logs" | wc -l) ))" 6

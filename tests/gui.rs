@@ -24,6 +24,8 @@ use frictionlab::protocol::engine::Screen;
 use frictionlab::results::read_log;
 use frictionlab::session::{LiveSession, Phase};
 
+use common::window::click;
+
 const STEP_S: f32 = 0.05;
 
 fn harness(
@@ -49,12 +51,6 @@ fn harness_with(launch: Launch) -> Harness<'static, FrictionlabApp> {
 
 fn live<'a>(h: &'a Harness<'_, FrictionlabApp>) -> &'a LiveSession {
     h.state().live().expect("a session is open")
-}
-
-fn click(h: &mut Harness<'_, FrictionlabApp>, label: &str) {
-    h.get_by_label(label).click();
-    h.step();
-    h.step();
 }
 
 /// Replaces the text of the field labelled `label` with `text`.
@@ -1028,18 +1024,7 @@ fn analyze_from_the_window_writes_the_summary_the_command_line_writes_issue_37()
     run_to_completion(&out, "magnitude-quick.json", "p01");
     run_to_completion(&out, "magnitude-quick.json", "p02");
     let mut h = harness(&out, "", None);
-    click(&mut h, "Results");
-    click(&mut h, "Analyze");
-    let mut done = false;
-    for _ in 0..1200 {
-        h.step();
-        if h.query_by_label("Open report").is_some() {
-            done = true;
-            break;
-        }
-        std::thread::sleep(std::time::Duration::from_millis(50));
-    }
-    assert!(done, "the analysis ended: {:?}", h.state().error());
+    common::window::analyze_in_results_tab(&mut h);
     h.get_by_label("magnitude_estimation");
     let window = std::fs::read(out.join("report/summary.json")).unwrap();
     let cli = dir.path().join("cli");

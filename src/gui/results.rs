@@ -4,8 +4,9 @@
 //! [`ResultsDir::overview`], with Resume where a session can be resumed;
 //! Analyze, which runs the same analysis as `frictionlab analyze` (into the
 //! same `<folder>/report`) on a thread of its own while a progress bar
-//! runs, then shows `summary.json`'s statistics; and Open report, which
-//! opens `report.html` in the system's browser.
+//! runs, then shows each study's figures and key statistics (its kind's
+//! results view, from `summary.json`) with the full tree one click away;
+//! and Open report, which opens `report.html` in the system's browser.
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
@@ -14,7 +15,7 @@ use eframe::egui::{self, RichText};
 use serde_json::Value;
 
 use super::{Command, ERROR_RED};
-use crate::kinds::Registry;
+use crate::kinds::{Registry, results_view};
 use crate::results::{ResultsDir, SessionOverview, SessionStatus};
 
 /// How often the folder is read again, s (a session open elsewhere ends
@@ -219,19 +220,40 @@ fn sessions_table(ui: &mut egui::Ui, sessions: &[SessionOverview], commands: &mu
         });
 }
 
-/// `summary.json` as a tree: each study's section open, numbers to four
-/// decimals, long lists folded.
+/// `summary.json`, a section per study: the study's figures and key
+/// statistics from its kind's results view ([`results_view`]), with its
+/// full tree one click away; a study without a view, and the notes, as a
+/// tree (numbers to four decimals, long lists folded).
 fn summary_view(ui: &mut egui::Ui, summary: &Value) {
     let Some(map) = summary.as_object() else {
+        ui.label(RichText::new("error: summary.json is not an object").color(ERROR_RED));
         return;
     };
     for (key, value) in map {
         if key == "inputs" {
             continue;
         }
+        let view = results_view(key);
         egui::CollapsingHeader::new(RichText::new(key).strong())
             .default_open(key != "notes")
-            .show(ui, |ui| tree(ui, value, 0));
+            .show(ui, |ui| {
+                if let Some(view) = view {
+                    view(ui, value);
+                    egui::CollapsingHeader::new(format!("Full tree of {key}"))
+                        .id_salt(("full-tree", key))
+                        .show(ui, |ui| tree(ui, value, 0));
+                } else {
+                    if key != "notes" {
+                        ui.label(
+                            RichText::new(format!(
+                                "No figures for {key}: its kind has no results view."
+                            ))
+                            .weak(),
+                        );
+                    }
+                    tree(ui, value, 0);
+                }
+            });
     }
 }
 
@@ -289,5 +311,90 @@ fn leaf(v: &Value) -> String {
         Value::String(s) => s.clone(),
         Value::Null => "n/a".to_owned(),
         v => v.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, reason = "tests: a panic is a failure")]
+
+    use egui_kittest::{Harness, kittest::Queryable};
+    use serde_json::{Value, json};
+
+    fn shown(summary: Value) -> Harness<'static> {
+        let mut h = Harness::new_ui(move |ui| super::summary_view(ui, &summary));
+        h.run();
+        h
+    }
+
+    /// A kind without a results view (the test-only staircase has no
+    /// analysis) shows its object as the tree, and says why.
+    #[test]
+    fn a_study_of_a_kind_without_a_view_is_shown_as_its_tree() {
+        let h = shown(json!({"toy_staircase": {"reversals": 6}, "notes": []}));
+        h.get_by_label("No figures for toy_staircase: its kind has no results view.");
+        h.get_by_label("reversals: 6");
+    }
+
+    /// A summary.json with fields missing or of the wrong type: each view
+    /// says which, and nothing panics; the tree is still one click away.
+    #[test]
+    fn missing_or_wrong_fields_are_named_not_panicked_on() {
+        let mut h = shown(json!({
+            "paired_comparison": {"counts": {"a": 1, "b": "x"}},
+            "magnitude_estimation": {"displays": ["tactile", "visual"], "geometric_means": [{}]},
+            "fitts": {"regression": 3},
+            "discrimination": {"fits": [{"level": 0.4}], "levels": null},
+        }));
+        h.get_by_label("summary.json: paired_comparison.counts.b is \"x\", not a count");
+        h.get_by_label("summary.json has no paired_comparison.order.first_chosen");
+        h.get_by_label("summary.json has no magnitude_estimation.display_effect.n");
+        h.get_by_label("summary.json has no magnitude_estimation.geometric_means[0].normalization");
+        h.get_by_label("summary.json: fitts.regression is 3, not a list");
+        h.get_by_label("summary.json has no discrimination.criterion");
+        h.get_by_label("summary.json has no discrimination.fits[0].location");
+        h.get_by_label("Full tree of fitts").click();
+        h.run();
+        h.get_by_label("regression: 3");
+    }
+
+    /// A regression that is n/a (one ID tested) says so in its sentence;
+    /// lines without the IDs tested (no quadrants) say what they span.
+    #[test]
+    fn a_regression_that_is_n_a_says_why() {
+        let regression = |condition: &str, fit: Option<f64>| {
+            json!({"condition": condition, "intercept_s": fit, "slope_s_per_bit": fit,
+                "r2": fit, "n": 8})
+        };
+        let h = shown(json!({"fitts": {
+            "regression": [regression("baseline", None), regression("real", Some(0.5))],
+            "throughput_bits_per_s": {"baseline": 3.6236, "real": 2.0},
+            "quadrants": [],
+        }}));
+        h.get_by_label(
+            "baseline: regression n/a (fewer than two distinct IDs) (n = 8 tests); throughput 3.62 bits/s.",
+        );
+        h.get_by_label(
+            "real: MT = 0.500 s + 0.500 s/bit × ID, r² = 0.50 (n = 8 tests); throughput 2.00 bits/s.",
+        );
+        h.get_by_label(
+            "summary.json lists the IDs tested only with the quadrants (baseline and another condition): the lines run from 0 to 6 bits.",
+        );
+    }
+
+    /// A Fitts study with no test analysed (only the practice done) says
+    /// so.
+    #[test]
+    fn a_fitts_study_without_tests_says_so() {
+        let h = shown(json!({"fitts": {"regression": [], "quadrants": [],
+            "throughput_bits_per_s": {}, "tests": 0}}));
+        h.get_by_label("No condition to regress: 0 tests analysed.");
+    }
+
+    /// A summary that is not an object says so.
+    #[test]
+    fn a_summary_that_is_not_an_object_says_so() {
+        let h = shown(json!([1, 2]));
+        h.get_by_label("error: summary.json is not an object");
     }
 }

@@ -20,6 +20,11 @@
 //! The simulated participant and the window answer what a trial shows and
 //! asks (`Screen`, `Question`), not the kind: a kind that reuses existing
 //! screens needs no participant or GUI code.
+//!
+//! A kind's results view (`view.rs`: its figures and key statistics, drawn
+//! from its object of `summary.json`) is reached through
+//! [`results_view`], which the registry line generates; [`figures`] holds
+//! what the views share.
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -38,6 +43,8 @@ use crate::protocol::kind::{
 use crate::protocol::load::Walk;
 use crate::protocol::{self, plan};
 use crate::time::Time;
+
+pub mod figures;
 
 /// A protocol of the registered kinds.
 pub type Protocol = protocol::Protocol<Registry>;
@@ -372,6 +379,18 @@ macro_rules! kinds {
                 }
             }
         )*
+
+        /// The results view of the kind whose object of `summary.json` is
+        /// under `key` (its name), from its folder's `view.rs`; `None` for
+        /// another key, or a kind without one (the window shows the object
+        /// as a tree).
+        #[must_use]
+        pub fn results_view(key: &str) -> Option<figures::ResultsView> {
+            match key {
+                $($(#[cfg($cfg)])? $name => $module::view::VIEW,)*
+                _ => None,
+            }
+        }
 
         impl AnalysedKinds for Registry {
             #[allow(clippy::vec_init_then_push, reason = "a push per kind, some under cfg")]

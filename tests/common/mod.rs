@@ -11,6 +11,8 @@ use frictionlab::friction::{ForceLimit, Input, ModelParams, Output, Real, Steppe
 use frictionlab::scenario::{self, Sample, ScenarioParams};
 use frictionlab::settings;
 
+pub mod window;
+
 /// Default parameters of `model` with `overrides` applied.
 pub fn model(name: &str, overrides: &[(&str, &str)]) -> ModelParams {
     let base = ModelParams::default_for(name).expect("known model");

@@ -54,6 +54,7 @@ use crate::time::Time;
 
 pub mod analysis;
 pub mod report;
+pub mod view;
 
 /// The discrimination kind.
 #[derive(Debug)]

@@ -1,5 +1,7 @@
 //! The discrimination section of the report.
 
+use frictionlab_psychophysics::psychometric::{GUESS_2IFC, Params, Psychometric, Shape};
+
 use super::analysis::{Discrimination, TrackFit};
 use crate::analysis::report::{esc, fmt, line_chart, scatter_curves, table_html};
 
@@ -8,23 +10,30 @@ fn fitted_curve(d: &Discrimination, t: &TrackFit) -> Vec<(f64, f64)> {
     let (lo, hi) = t.blocks.iter().fold((f64::INFINITY, 0.0_f64), |(a, b), k| {
         (a.min(k.x), b.max(k.x))
     });
-    t.fit.map_or_else(Vec::new, |f| {
-        let psi = frictionlab_psychophysics::psychometric::Psychometric {
-            shape: d.design.fit.shape,
-            params: f.params,
-            guess: frictionlab_psychophysics::psychometric::GUESS_2IFC,
-        };
-        (0..=60)
-            .map(|k| {
-                let x = lo + (hi - lo) * f64::from(k) / 60.0;
-                (x, psi.p_correct(x))
-            })
-            .collect()
-    })
+    t.fit
+        .map_or_else(Vec::new, |f| curve(d.design.fit.shape, f.params, (lo, hi)))
 }
 
-/// Tracks shown in the track and fit figures (the first participants').
-const TRACKS_SHOWN: usize = 6;
+/// A fitted function of `shape` with `params` (two intervals), 61 points
+/// from `lo` to `hi`: the report's and the window's curves.
+#[must_use]
+pub fn curve(shape: Shape, params: Params, (lo, hi): (f64, f64)) -> Vec<(f64, f64)> {
+    let psi = Psychometric {
+        shape,
+        params,
+        guess: GUESS_2IFC,
+    };
+    (0..=60)
+        .map(|k| {
+            let x = lo + (hi - lo) * f64::from(k) / 60.0;
+            (x, psi.p_correct(x))
+        })
+        .collect()
+}
+
+/// Tracks shown in the track and fit figures (the first participants'),
+/// in the report and in the window.
+pub const TRACKS_SHOWN: usize = 6;
 
 /// The discrimination section: each track's differences, the fitted
 /// functions over the binned answers, and the Weber fraction against the

@@ -28,6 +28,7 @@ use crate::time::Time;
 
 pub mod analysis;
 pub mod report;
+pub mod view;
 
 /// The Fitts kind.
 #[derive(Debug)]

@@ -32,6 +32,7 @@ use crate::time::Time;
 pub mod analysis;
 pub mod report;
 pub mod scaling;
+pub mod view;
 
 /// The magnitude-estimation kind.
 #[derive(Debug)]

@@ -2,7 +2,7 @@
 
 use std::fmt::Write as _;
 
-use super::analysis::Magnitude;
+use super::analysis::{GeoMean, Magnitude};
 use super::scaling::ScalingResult;
 use crate::analysis::Table;
 use crate::analysis::report::{esc, fmt, line_chart, table_html};
@@ -35,22 +35,16 @@ pub fn magnitude_section(m: &Magnitude) -> String {
     for d in &m.displays {
         for norm in ["pooled", "per_display"] {
             for against in ["mu_s", "mu_k"] {
-                let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
-                for g in m
-                    .means
-                    .iter()
-                    .filter(|g| &g.display == d && g.normalization == norm)
-                {
-                    let name = format!("delta_mu {}", g.delta_mu);
-                    let x = if against == "mu_s" { g.mu_s } else { g.mu_k };
-                    match series.iter_mut().find(|(n, _)| *n == name) {
-                        Some((_, pts)) => pts.push((x, g.value)),
-                        None => series.push((name, vec![(x, g.value)])),
-                    }
-                }
-                for (_, pts) in &mut series {
-                    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-                }
+                let x = if against == "mu_s" {
+                    |g: &GeoMean| g.mu_s
+                } else {
+                    |g: &GeoMean| g.mu_k
+                };
+                let series: Vec<(String, Vec<(f64, f64)>)> =
+                    delta_mu_series(&m.means, d, norm, x)
+                        .into_iter()
+                        .map(|(name, gs)| (name, gs.iter().map(|g| (x(g), g.value)).collect()))
+                        .collect();
                 let title = format!("{d}, {norm}: perceived friction vs {against}");
                 s.push_str(&line_chart(&title, against, "geometric mean", &series, &[]));
             }
@@ -63,6 +57,34 @@ pub fn magnitude_section(m: &Magnitude) -> String {
         }
     }
     s
+}
+
+/// The geometric means of `display` under `normalization`, one series per
+/// delta_mu (named `delta_mu <value>`, in the order they come), each
+/// sorted by `x` (mu_s or mu_k): what the report's charts and the
+/// window's figures draw.
+#[must_use]
+pub fn delta_mu_series<'a>(
+    means: &'a [GeoMean],
+    display: &str,
+    normalization: &str,
+    x: fn(&GeoMean) -> f64,
+) -> Vec<(String, Vec<&'a GeoMean>)> {
+    let mut series: Vec<(String, Vec<&GeoMean>)> = Vec::new();
+    for g in means
+        .iter()
+        .filter(|g| g.display == display && g.normalization == normalization)
+    {
+        let name = format!("delta_mu {}", g.delta_mu);
+        match series.iter_mut().find(|(n, _)| *n == name) {
+            Some((_, gs)) => gs.push(g),
+            None => series.push((name, vec![g])),
+        }
+    }
+    for (_, gs) in &mut series {
+        gs.sort_by(|a, b| x(a).total_cmp(&x(b)));
+    }
+    series
 }
 
 impl Magnitude {

@@ -24,6 +24,7 @@ use crate::time::Time;
 
 pub mod analysis;
 pub mod report;
+pub mod view;
 
 /// The paired-comparison kind.
 #[derive(Debug)]

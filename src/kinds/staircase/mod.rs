@@ -11,7 +11,8 @@
 //! engine, participant or GUI code. Its trials come from its own
 //! [`TrialSource`], whose state (difference, reversals) is rebuilt from the
 //! logged answers on resume. Its analysis ([`analysis`]) gives each
-//! participant's threshold and their mean.
+//! participant's threshold and their mean; it has no results view
+//! (`view.rs`), so the window shows its summary object as a tree.
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -25,6 +26,8 @@ use crate::analysis::{AnalysisEntry, KindAnalysis, Section};
 use crate::friction::ModelParams;
 use crate::kinds::magnitude::{Stimulus, stimulus_model};
 use crate::kinds::paired::{Compare, Paired, PairedData, PairedTrial};
+
+pub mod view;
 use crate::protocol::check::{Checks, MAX_TRIALS};
 use crate::protocol::engine::{Action, Input, Status, TrialRecord, TrialSource};
 use crate::protocol::kind::{Holds, Kinds, LiveTrial, Next, StudyKind, TrackAnswers};
