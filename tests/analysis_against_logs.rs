@@ -346,7 +346,7 @@ fn rows_from_the_log_or_from_the_csv_give_the_same_statistics() {
 
     // Quoted cells: the same values to a CSV reader, not the same bytes.
     let text = std::fs::read_to_string(dir.path().join(CSV)).unwrap();
-    let quoted = text.replace(",sim001,", ",\"sim001\",");
+    let quoted = text.replace(",sim-001,", ",\"sim-001\",");
     assert_ne!(quoted, text);
     std::fs::write(dir.path().join(CSV), quoted).unwrap();
     let o = analyze(dir.path(), &[]);

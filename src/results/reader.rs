@@ -97,12 +97,20 @@ pub fn records(text: &str, same_length: bool) -> Result<Vec<Record>, ReadError> 
         match reader.read_record(&mut cells) {
             Ok(false) => return Ok(out),
             Ok(true) => {
-                // The reader's position is before any blank lines it
-                // skipped: the record's own start is where it says.
                 let at = cells.position().unwrap_or(&start);
+                let mut line = usize::try_from(at.line()).unwrap_or(usize::MAX);
+                let mut byte = usize::try_from(at.byte()).unwrap_or(usize::MAX);
+                // The position may be that of blank lines the reader
+                // skipped before the record: its own start is after them.
+                while let Some(&b) = text.as_bytes().get(byte)
+                    && (b == b'\n' || b == b'\r')
+                {
+                    line += usize::from(b == b'\n');
+                    byte += 1;
+                }
                 out.push(Record {
-                    line: usize::try_from(at.line()).unwrap_or(usize::MAX),
-                    byte: usize::try_from(at.byte()).unwrap_or(usize::MAX),
+                    line,
+                    byte,
                     cells: cells.clone(),
                 });
             }
