@@ -631,7 +631,7 @@ fn unusable_input_exits_2_with_place_and_reason() {
         (
             "unknown kind",
             Box::new(|t: &mut String| *t = t.replace(",magnitude_estimation,", ",tapping,")),
-            "2:1: no analysis for the kind of session 'tapping'",
+            "2:9: no analysis for the kind of session 'tapping'",
         ),
     ];
     for (name, edit, message) in cases {

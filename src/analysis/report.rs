@@ -8,7 +8,7 @@ use std::fmt::Write as _;
 use plotters::prelude::*;
 use serde_json::Value;
 
-use super::Table;
+use super::table::Table;
 
 /// `s` escaped for HTML text and attributes.
 #[must_use]

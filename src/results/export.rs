@@ -34,6 +34,14 @@ pub const COMMON_COLUMNS: [&str; 10] = [
 /// that added it).
 #[must_use]
 pub fn data_csv<K: Kinds>(log: &ReadLog<K>) -> String {
+    let (columns, rows) = data_rows(log);
+    csv_text(&columns, &rows)
+}
+
+/// The columns and the rows' cells of a session's data CSV
+/// ([`data_csv`]), as the file holds them (text quoted where it must be).
+#[must_use]
+pub fn data_rows<K: Kinds>(log: &ReadLog<K>) -> (Vec<&'static str>, Vec<Vec<String>>) {
     let lsl = log
         .trials
         .iter()
@@ -42,15 +50,37 @@ pub fn data_csv<K: Kinds>(log: &ReadLog<K>) -> String {
     if lsl {
         columns.extend(LSL_COLUMNS);
     }
-    let mut csv = columns.join(",");
+    let rows = log
+        .trials
+        .iter()
+        .map(|r| {
+            let mut cells = data_cells(&log.header, r);
+            if lsl {
+                cells.push(super::csv::opt_num(r.lsl_start_s));
+                cells.push(super::csv::opt_num(r.lsl_end_s));
+            }
+            cells
+        })
+        .collect();
+    (columns, rows)
+}
+
+/// CSV text of `columns` and `rows` of cells (quoted already).
+#[must_use]
+pub fn csv_text(columns: &[&str], rows: &[Vec<String>]) -> String {
+    let width = rows
+        .first()
+        .map_or(0, |r| r.iter().map(|c| c.len() + 1).sum());
+    let mut csv = String::with_capacity((rows.len() + 1) * width.max(64));
+    csv.push_str(&columns.join(","));
     csv.push('\n');
-    for r in &log.trials {
-        let mut cells = data_cells(&log.header, r);
-        if lsl {
-            cells.push(super::csv::opt_num(r.lsl_start_s));
-            cells.push(super::csv::opt_num(r.lsl_end_s));
+    for cells in rows {
+        for (i, cell) in cells.iter().enumerate() {
+            if i > 0 {
+                csv.push(',');
+            }
+            csv.push_str(cell);
         }
-        csv.push_str(&cells.join(","));
         csv.push('\n');
     }
     csv

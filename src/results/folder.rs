@@ -129,7 +129,7 @@ impl ResultsDir {
     }
 
     /// Every session log in the folder, sorted.
-    pub(super) fn logs(&self) -> Vec<PathBuf> {
+    pub fn logs(&self) -> Vec<PathBuf> {
         let Ok(entries) = std::fs::read_dir(self.root.join("logs")) else {
             return Vec::new();
         };

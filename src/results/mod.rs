@@ -18,7 +18,8 @@
 //! The parts: `session_log.rs` (the log's lines, writing and reading it back,
 //! torn lines), `folder.rs` (the folder's layout, file names, session
 //! numbering), `export.rs` (the data CSVs and `dataset_description.json`;
-//! each kind writes its own cells with `csv.rs`) and
+//! each kind writes its own cells with `csv.rs`), `reader.rs` (the one CSV
+//! reader), `verify.rs` (each data CSV held against its log) and
 //! `atomic.rs` (the one atomic file write).
 
 mod atomic;
@@ -26,6 +27,7 @@ pub mod csv;
 mod export;
 mod folder;
 mod lock;
+pub mod reader;
 mod session_log;
 mod verify;
 
@@ -34,8 +36,8 @@ use std::path::Path;
 
 pub use atomic::replace_file;
 pub use export::{
-    COMMON_COLUMNS, LSL_COLUMNS, data_cells, data_columns, data_csv, kinds_present,
-    write_dataset_description,
+    COMMON_COLUMNS, LSL_COLUMNS, csv_text, data_cells, data_columns, data_csv, data_rows,
+    kinds_present, write_dataset_description,
 };
 pub use folder::{
     MAX_ID_CHARS, ResultsDir, SessionFiles, SessionOverview, SessionStatus, check_participant,
@@ -44,9 +46,9 @@ pub use folder::{
 pub use lock::{FolderLock, Holder, lock_file, open_elsewhere};
 pub use session_log::{
     Header, LOG_FORMAT, LogLine, ReadLog, SessionLog, is_completed, log_json_schema, parse_log,
-    read_log, sha256_hex,
+    read_header, read_log, sha256_hex,
 };
-pub use verify::{NO_LOG, Verified, data_files, verify};
+pub use verify::{Checked, NO_LOG, Source, Verified, data_files, verify};
 
 /// Why a results operation failed.
 #[derive(Debug, thiserror::Error)]

@@ -313,7 +313,11 @@ pub(super) fn header_participant(path: &Path) -> Result<String, ResultsError> {
     }
 }
 
-pub(super) fn read_header<K: Kinds>(path: &Path) -> Result<Header<K>, ResultsError> {
+/// The header of the session log at `path` (its first line).
+///
+/// # Errors
+/// The file cannot be read, or its first line is not a header.
+pub fn read_header<K: Kinds>(path: &Path) -> Result<Header<K>, ResultsError> {
     match first_line::<LogLine<K>>(path)? {
         LogLine::Header(h) => Ok(*h),
         _ => Err(log_error(

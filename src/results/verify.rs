@@ -14,9 +14,10 @@
 
 use std::path::{Path, PathBuf};
 
-use super::export::data_csv;
+use super::export::{csv_text, data_rows};
 use super::folder::ResultsDir;
-use super::session_log::{LogLine, ReadLog, parse_log_lines};
+use super::reader::{Record, records};
+use super::session_log::{Header, LogLine, ReadLog, parse_log_lines};
 use super::{ResultsError, lock};
 use crate::problem::Problem;
 use crate::protocol::kind::Kinds;
@@ -25,14 +26,52 @@ use crate::protocol::kind::Kinds;
 /// command line adds how to analyse such data unchecked).
 pub const NO_LOG: &str = "no session log";
 
-/// The data CSVs to analyse, and what was found and tolerated.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct Verified {
+/// The data CSVs to analyse, each with what was taken from it, and what
+/// was found and tolerated.
+#[derive(Debug, Clone)]
+pub struct Verified<K: Kinds, T> {
     /// The data CSVs, sorted (sessions open elsewhere left out).
-    pub files: Vec<PathBuf>,
+    pub files: Vec<Checked<K, T>>,
     /// One line each: a torn last line left out, a session open in another
     /// process left out.
     pub notices: Vec<String>,
+}
+
+/// A data CSV that matches its log.
+#[derive(Debug, Clone)]
+pub struct Checked<K: Kinds, T> {
+    /// The data CSV.
+    pub csv: PathBuf,
+    /// Its log's header.
+    pub header: Header<K>,
+    /// What the caller took from its rows ([`verify`]'s `take`).
+    pub taken: T,
+}
+
+/// The rows of a data CSV that matches its log, as [`verify`] hands them
+/// to its caller: each file is read once.
+#[derive(Debug, Clone, Copy)]
+pub enum Source<'a, K: Kinds> {
+    /// The CSV is the one its log makes, byte for byte: its rows as the
+    /// log gives them, not read again from the CSV.
+    Log {
+        /// The log.
+        read: &'a ReadLog<K>,
+        /// The CSV's columns.
+        columns: &'a [&'static str],
+        /// Each trial record's cells, one per column, as the CSV holds
+        /// them (text quoted where it must be).
+        cells: &'a [Vec<String>],
+    },
+    /// The CSV's own records (the column names first), read from `text`:
+    /// the log's rows in another notation of the same numbers, or with
+    /// columns of its own.
+    Csv {
+        /// The CSV's text.
+        text: &'a str,
+        /// Its records.
+        records: &'a [Record],
+    },
 }
 
 /// The data CSVs of `dir` (`data/*_data.csv`), sorted.
@@ -52,18 +91,31 @@ pub fn data_files(dir: &Path) -> Vec<PathBuf> {
 }
 
 /// Holds every data CSV of `dir` against its session log (module docs),
-/// on `jobs` threads; the first problem in file order is returned.
+/// on `jobs` threads, and hands the rows of each that matches to `take`
+/// (with the CSV's path), whose answer it keeps; the first problem in file
+/// order is returned.
 ///
 /// # Errors
 /// The first problem found.
-pub fn verify<K: Kinds>(dir: &Path, jobs: usize) -> Result<Verified, Problem> {
+pub fn verify<K: Kinds, T: Send>(
+    dir: &Path,
+    jobs: usize,
+    take: impl Fn(&Path, Source<'_, K>) -> T + Sync,
+) -> Result<Verified<K, T>, Problem> {
     let files = data_files(dir);
-    let checked = crate::parallel::run(&files, jobs, |csv| check_file::<K>(dir, csv));
-    let mut out = Verified::default();
+    let checked = crate::parallel::run(&files, jobs, |csv| check_file::<K, T>(dir, csv, &take));
+    let mut out = Verified {
+        files: Vec::new(),
+        notices: Vec::new(),
+    };
     for (csv, result) in files.iter().zip(checked) {
-        let (analyse, notice) = result?;
-        if analyse {
-            out.files.push(csv.clone());
+        let (taken, notice) = result?;
+        if let Some((header, taken)) = taken {
+            out.files.push(Checked {
+                csv: csv.clone(),
+                header,
+                taken,
+            });
         }
         out.notices.extend(notice);
     }
@@ -98,8 +150,16 @@ fn log_without_csv<K: Kinds>(dir: &Path, log: &Path) -> Option<Problem> {
     })
 }
 
-/// Checks one CSV; `(analyse it, a notice)`.
-fn check_file<K: Kinds>(dir: &Path, csv: &Path) -> Result<(bool, Option<String>), Problem> {
+/// What checking one CSV gives: its header and what `take` took from it
+/// (`None`: left out), and a notice.
+type FileChecked<K, T> = (Option<(Header<K>, T)>, Option<String>);
+
+/// Checks one CSV and hands its rows to `take`.
+fn check_file<K: Kinds, T>(
+    dir: &Path,
+    csv: &Path,
+    take: &(impl Fn(&Path, Source<'_, K>) -> T + Sync),
+) -> Result<FileChecked<K, T>, Problem> {
     let name = csv
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -118,7 +178,7 @@ fn check_file<K: Kinds>(dir: &Path, csv: &Path) -> Result<(bool, Option<String>)
     }
     if let Some(holder) = lock::open_elsewhere(&log) {
         return Ok((
-            false,
+            None,
             Some(format!(
                 "{}: the session is open in another process{}: left out of this analysis; analyse again once it has ended",
                 log.display(),
@@ -173,8 +233,8 @@ fn check_file<K: Kinds>(dir: &Path, csv: &Path) -> Result<(bool, Option<String>)
     }
     let text = std::fs::read_to_string(csv)
         .map_err(|e| at(csv.display().to_string(), format!("cannot read: {e}")))?;
-    compare(csv, &log, &text, &read, &lines)?;
-    Ok((true, notice))
+    let taken = compare(csv, &log, &text, &read, &lines, take)?;
+    Ok((Some((read.header, taken)), notice))
 }
 
 /// A log's problem with the trial it follows, as a [`Problem`].
@@ -215,75 +275,6 @@ fn after<K: Kinds>(read: &ReadLog<K>, i: usize) -> String {
         .unwrap_or_default()
 }
 
-/// One CSV record: its line (1-based) and its cells with their columns.
-struct Record {
-    line: usize,
-    cells: Vec<(String, usize)>,
-}
-
-impl Record {
-    fn cell(&self, i: Option<usize>) -> Option<&str> {
-        i.and_then(|i| self.cells.get(i)).map(|(c, _)| c.as_str())
-    }
-
-    fn column(&self, i: usize) -> usize {
-        self.cells.get(i).map_or(1, |(_, c)| *c)
-    }
-}
-
-/// Splits CSV text into records, honouring double quotes (a quoted cell
-/// may hold commas, quotes and line breaks).
-fn records(text: &str) -> Vec<Record> {
-    let mut out = Vec::new();
-    let (mut line, mut column) = (1, 1);
-    let mut record = Record {
-        line,
-        cells: Vec::new(),
-    };
-    let (mut cell, mut start, mut quoted, mut any) = (String::new(), 1, false, false);
-    let mut chars = text.chars().peekable();
-    while let Some(c) = chars.next() {
-        any = true;
-        match c {
-            '"' if quoted && chars.peek() == Some(&'"') => {
-                cell.push('"');
-                chars.next();
-                column += 1;
-            }
-            '"' => quoted = !quoted,
-            ',' if !quoted => {
-                record.cells.push((std::mem::take(&mut cell), start));
-                start = column + 1;
-            }
-            '\r' if !quoted && chars.peek() == Some(&'\n') => {}
-            '\n' if !quoted => {
-                record.cells.push((std::mem::take(&mut cell), start));
-                line += 1;
-                out.push(std::mem::replace(
-                    &mut record,
-                    Record {
-                        line,
-                        cells: Vec::new(),
-                    },
-                ));
-                (column, start, any) = (0, 1, false);
-            }
-            '\n' => {
-                cell.push(c);
-                line += 1;
-                column = 0;
-            }
-            _ => cell.push(c),
-        }
-        column += 1;
-    }
-    if any {
-        record.cells.push((cell, start));
-        out.push(record);
-    }
-    out
-}
-
 /// Two cells alike: the same text, or the same numbers (`;`-separated
 /// lists too), whatever their notation.
 fn alike(a: &str, b: &str) -> bool {
@@ -298,28 +289,48 @@ fn alike(a: &str, b: &str) -> bool {
             }))
 }
 
-/// Holds the CSV `text` against the rows its log gives (module docs).
-fn compare<K: Kinds>(
+/// Holds the CSV `text` against the rows its log gives (module docs),
+/// and hands the rows that match to `take`.
+fn compare<K: Kinds, T>(
     csv: &Path,
     log: &Path,
     text: &str,
     read: &ReadLog<K>,
     lines: &[usize],
-) -> Result<(), Problem> {
-    let made = data_csv(read);
+    take: &(impl Fn(&Path, Source<'_, K>) -> T + Sync),
+) -> Result<T, Problem> {
+    let (columns, cells) = data_rows(read);
+    let made = csv_text(&columns, &cells);
     // The CSV as its session wrote it, byte for byte: nothing to tell.
     if made == text {
-        return Ok(());
+        return Ok(take(
+            csv,
+            Source::Log {
+                read,
+                columns: &columns,
+                cells: &cells,
+            },
+        ));
     }
-    let actual = records(text);
-    let expected = records(&made);
-    let (Some(head), Some(exp_head)) = (actual.first(), expected.first()) else {
-        return Ok(());
+    let unreadable = |e: super::reader::ReadError| {
+        Problem::new(format!("{}: {}:1", csv.display(), e.line), e.message)
     };
-    let names: Vec<&str> = head.cells.iter().map(|(c, _)| c.as_str()).collect();
+    let actual = records(text, false).map_err(unreadable)?;
+    let expected = records(&made, false).map_err(unreadable)?;
+    let (Some(head), Some(exp_head)) = (actual.first(), expected.first()) else {
+        return Ok(take(
+            csv,
+            Source::Csv {
+                text,
+                records: &actual,
+            },
+        ));
+    };
+    let names: Vec<&str> = head.cells.iter().collect();
     let held = Held {
         csv,
         log,
+        text,
         read,
         lines,
         // The CSV's columns that the log gives, by position in each.
@@ -327,30 +338,36 @@ fn compare<K: Kinds>(
             .cells
             .iter()
             .enumerate()
-            .filter_map(|(j, (name, _))| names.iter().position(|n| n == name).map(|i| (i, j)))
+            .filter_map(|(j, name)| names.iter().position(|n| *n == name).map(|i| (i, j)))
             .collect(),
-        exp_trial: exp_head.cells.iter().position(|(c, _)| c == "trial"),
+        exp_trial: exp_head.cells.iter().position(|c| c == "trial"),
         names,
     };
-    let (actual, expected) = (&actual[1..], &expected[1..]);
+    let (body, expected) = (&actual[1..], &expected[1..]);
     let mut next = 0;
-    for (k, row) in actual.iter().enumerate() {
+    for (k, row) in body.iter().enumerate() {
         held.own(row)?;
         if expected.get(next).is_some_and(|e| held.same(row, e)) {
             next += 1;
             continue;
         }
-        return Err(held.unlike(&actual[..k], row, &expected[next..], next));
+        return Err(held.unlike(&body[..k], row, &expected[next..], next));
     }
     match read.trials.get(next) {
-        None => Ok(()),
+        None => Ok(take(
+            csv,
+            Source::Csv {
+                text,
+                records: &actual,
+            },
+        )),
         Some(missing) => {
             let more = read.trials.len() - next - 1;
             Err(Problem::new(
                 format!(
                     "{}: {}:1",
                     csv.display(),
-                    actual.last().map_or(1, |r| r.line) + 1
+                    body.last().map_or(1, |r| r.line) + 1
                 ),
                 format!(
                     "trial {} (log line {}) is missing from the CSV{}{}",
@@ -376,6 +393,8 @@ fn compare<K: Kinds>(
 struct Held<'a, K: Kinds> {
     csv: &'a Path,
     log: &'a Path,
+    /// The CSV's text.
+    text: &'a str,
     read: &'a ReadLog<K>,
     /// Each trial record's log line.
     lines: &'a [usize],
@@ -393,18 +412,23 @@ impl<K: Kinds> Held<'_, K> {
     }
 
     fn trial(&self, r: &Record) -> String {
-        r.cell(self.col("trial")).unwrap_or("?").to_owned()
+        self.col("trial")
+            .and_then(|i| r.cell(i))
+            .unwrap_or("?")
+            .to_owned()
     }
 
-    fn place(&self, r: &Record, column: usize) -> String {
-        format!("{}: {}:{column}", self.csv.display(), r.line)
+    /// The place of cell `i` of `r`.
+    fn place(&self, r: &Record, i: usize) -> String {
+        let (line, column) = r.place(self.text, i);
+        format!("{}: {line}:{column}", self.csv.display())
     }
 
     /// The row's cells alike the log-given row's.
     fn same(&self, a: &Record, e: &Record) -> bool {
         self.map
             .iter()
-            .all(|&(i, j)| alike(a.cell(Some(i)).unwrap_or(""), e.cell(Some(j)).unwrap_or("")))
+            .all(|&(i, j)| alike(a.cell_or_empty(i), e.cell_or_empty(j)))
     }
 
     /// The row is of this file's study, participant and session.
@@ -417,11 +441,11 @@ impl<K: Kinds> Held<'_, K> {
             ("session", session.as_str()),
         ] {
             let at = self.col(name);
-            if let Some(value) = row.cell(at)
+            if let Some(value) = at.and_then(|i| row.cell(i))
                 && value != own
             {
                 return Err(Problem::new(
-                    self.place(row, row.column(at.unwrap_or(0))),
+                    self.place(row, at.unwrap_or(0)),
                     format!(
                         "trial {}: {name} is '{value}', but this is the CSV of session {} of '{}' in study '{}' (its log {})",
                         self.trial(row),
@@ -458,24 +482,22 @@ impl<K: Kinds> Held<'_, K> {
                 }
             )
         } else if let Some(e) = rest.first()
-            && e.cell(self.exp_trial) == row.cell(self.col("trial"))
+            && self.exp_trial.and_then(|j| e.cell(j)) == self.col("trial").and_then(|i| row.cell(i))
         {
-            let differs = self.map.iter().find(|&&(i, j)| {
-                !alike(
-                    row.cell(Some(i)).unwrap_or(""),
-                    e.cell(Some(j)).unwrap_or(""),
-                )
-            });
+            let differs = self
+                .map
+                .iter()
+                .find(|&&(i, j)| !alike(row.cell_or_empty(i), e.cell_or_empty(j)));
             let &(i, j) = differs.unwrap_or(&(0, 0));
             return Problem::new(
-                self.place(row, row.column(i)),
+                self.place(row, i),
                 format!(
                     "trial {}: {} is '{}', but its log (line {}) records '{}'",
                     self.trial(row),
                     self.names.get(i).unwrap_or(&"?"),
-                    row.cell(Some(i)).unwrap_or(""),
+                    row.cell_or_empty(i),
                     self.lines[next],
-                    e.cell(Some(j)).unwrap_or("")
+                    e.cell_or_empty(j)
                 ),
             );
         } else {
@@ -493,22 +515,13 @@ impl<K: Kinds> Held<'_, K> {
                     .unwrap_or_default()
             )
         };
-        Problem::new(self.place(row, 1), message)
+        Problem::new(self.place(row, 0), message)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn records_keep_lines_and_columns_through_quotes() {
-        let r = records("a,b\n\"x,1\",2\n3,\"y\"\"\nz\"\n");
-        assert_eq!(r.len(), 3);
-        assert_eq!(r[1].line, 2);
-        assert_eq!(r[1].cells, vec![("x,1".into(), 1), ("2".into(), 7)]);
-        assert_eq!(r[2].cells[1].0, "y\"\nz");
-    }
 
     #[test]
     fn cells_are_alike_in_any_notation_of_the_same_numbers() {

@@ -515,8 +515,8 @@ impl KindAnalysis for Magnitude {
             run: |rows, context| {
                 // Seed 001's form (no level), and the generic form's
                 // scalings; a folder may hold both.
-                let seed = rows.where_filled("level", false)?;
-                let scaled = rows.where_filled("level", true)?;
+                let seed = rows.where_filled("level", false);
+                let scaled = rows.where_filled("level", true);
                 let mut section = Section {
                     html: String::new(),
                     summary: Value::Null,

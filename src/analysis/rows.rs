@@ -1,0 +1,311 @@
+//! The rows API: a kind's data rows as the data CSVs hold them (every cell
+//! text, an empty cell the same as a missing one), read by column name,
+//! with numbers parsed on the way out so that a bad value is reported with
+//! its file, line and column.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+use crate::problem::Problem;
+use crate::results::reader::records;
+
+/// A column of text cells, stored end to end.
+#[derive(Debug, Clone, Default)]
+struct Column {
+    text: String,
+    ends: Vec<usize>,
+}
+
+impl Column {
+    fn push(&mut self, cell: &str) {
+        self.text.push_str(cell);
+        self.ends.push(self.text.len());
+    }
+
+    fn get(&self, i: usize) -> Option<&str> {
+        let end = *self.ends.get(i)?;
+        let start = i.checked_sub(1).map_or(0, |k| self.ends[k]);
+        self.text.get(start..end)
+    }
+
+    fn iter(&self) -> impl Iterator<Item = &str> {
+        let mut start = 0;
+        self.ends.iter().map(move |&end| {
+            let cell = self.text.get(start..end).unwrap_or("");
+            start = end;
+            cell
+        })
+    }
+}
+
+/// Rows of text cells by column name, each row with where it came from:
+/// its file (an index into [`Rows`]' files) and its record in that file
+/// (the column names are record 0).
+#[derive(Debug, Clone, Default)]
+pub(super) struct Frame {
+    names: Vec<&'static str>,
+    columns: Vec<Column>,
+    origin: Vec<(u32, u32)>,
+}
+
+impl Frame {
+    /// An empty frame of the columns `names`.
+    pub(super) fn new(names: &[&'static str]) -> Frame {
+        Frame {
+            names: names.to_vec(),
+            columns: vec![Column::default(); names.len()],
+            origin: Vec::new(),
+        }
+    }
+
+    /// Adds a row: one cell per column, from record `record` of file
+    /// `file`.
+    pub(super) fn push<S: AsRef<str>>(
+        &mut self,
+        cells: impl IntoIterator<Item = S>,
+        file: usize,
+        record: usize,
+    ) {
+        for (column, cell) in self.columns.iter_mut().zip(cells) {
+            column.push(cell.as_ref());
+        }
+        self.origin.push((
+            u32::try_from(file).unwrap_or(u32::MAX),
+            u32::try_from(record).unwrap_or(u32::MAX),
+        ));
+    }
+
+    /// Adds the rows of `other` (which has every column of this frame),
+    /// as rows of file `file`.
+    pub(super) fn append(&mut self, other: &Frame, file: usize) {
+        for (name, column) in self.names.iter().zip(&mut self.columns) {
+            if let Some(from) = other.column(name) {
+                for cell in from.iter() {
+                    column.push(cell);
+                }
+            }
+        }
+        let file = u32::try_from(file).unwrap_or(u32::MAX);
+        self.origin
+            .extend(other.origin.iter().map(|&(_, record)| (file, record)));
+    }
+
+    /// Its columns.
+    pub(super) fn names(&self) -> &[&'static str] {
+        &self.names
+    }
+
+    /// Whether it has the column `name`.
+    pub(super) fn has(&self, name: &str) -> bool {
+        self.names.contains(&name)
+    }
+
+    fn height(&self) -> usize {
+        self.origin.len()
+    }
+
+    fn column(&self, name: &str) -> Option<&Column> {
+        let i = self.names.iter().position(|n| *n == name)?;
+        self.columns.get(i)
+    }
+
+    /// The rows where `keep` holds.
+    fn filter(&self, keep: &[bool]) -> Frame {
+        let mut out = Frame::new(&self.names);
+        for (row, _) in keep.iter().enumerate().filter(|(_, k)| **k) {
+            for (to, from) in out.columns.iter_mut().zip(&self.columns) {
+                to.push(from.get(row).unwrap_or(""));
+            }
+            out.origin.extend(self.origin.get(row));
+        }
+        out
+    }
+}
+
+/// The data rows of one kind (completed, non-practice), and the files
+/// they came from (to place a bad value on the error path).
+#[derive(Debug, Clone, Default)]
+pub struct Rows {
+    frame: Frame,
+    /// The non-practice rows that did not complete (aborted, timed out).
+    aborted: Frame,
+    files: Vec<PathBuf>,
+}
+
+impl Rows {
+    /// The rows `frame` (completed) and `aborted` of `files` (empty: rows
+    /// made in memory, which no file places).
+    pub(super) fn new(frame: Frame, aborted: Frame, files: Vec<PathBuf>) -> Rows {
+        Rows {
+            frame,
+            aborted,
+            files,
+        }
+    }
+
+    /// Number of rows.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.frame.height()
+    }
+
+    /// Whether there are no rows.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.frame.height() == 0
+    }
+
+    /// The rows of the same files that did not complete (aborted, timed
+    /// out), which the analysis leaves out and counts (empty unless its
+    /// entry `counts_aborted`).
+    #[must_use]
+    pub fn aborted(&self) -> Rows {
+        Rows {
+            frame: self.aborted.clone(),
+            aborted: Frame::default(),
+            files: self.files.clone(),
+        }
+    }
+
+    /// The rows whose `column` is filled (`filled`), or empty or missing
+    /// (`!filled`); the rows that did not complete alike.
+    #[must_use]
+    pub fn where_filled(&self, column: &str, filled: bool) -> Rows {
+        let pick = |frame: &Frame| {
+            let keep: Vec<bool> = match frame.column(column) {
+                Some(c) => c.iter().map(|t| t.trim().is_empty() != filled).collect(),
+                None => vec![!filled; frame.height()],
+            };
+            frame.filter(&keep)
+        };
+        Rows {
+            frame: pick(&self.frame),
+            aborted: pick(&self.aborted),
+            files: self.files.clone(),
+        }
+    }
+
+    /// The text of `column` at `row`.
+    #[must_use]
+    pub fn text(&self, column: &str, row: usize) -> &str {
+        self.frame
+            .column(column)
+            .and_then(|c| c.get(row))
+            .unwrap_or("")
+    }
+
+    /// Every value of `column` as a number.
+    ///
+    /// # Errors
+    /// The first value that is not a finite number, with its file and line.
+    pub fn numbers(&self, column: &str) -> Result<Vec<f64>, Problem> {
+        let Some(c) = self.frame.column(column) else {
+            return Ok(Vec::new());
+        };
+        let mut out = Vec::with_capacity(self.len());
+        for (row, t) in c.iter().enumerate() {
+            match t.trim().parse::<f64>() {
+                Ok(x) if x.is_finite() => out.push(x),
+                _ => return Err(self.error(column, row, &format!("'{t}' is not a finite number"))),
+            }
+        }
+        Ok(out)
+    }
+
+    /// Every value of `column` as a small integer code, with the distinct
+    /// values in order of first appearance.
+    #[must_use]
+    pub fn codes(&self, column: &str) -> (Vec<u32>, Vec<String>) {
+        let mut names: Vec<String> = Vec::new();
+        let mut index: HashMap<&str, u32> = HashMap::new();
+        let codes = self
+            .frame
+            .column(column)
+            .map(|c| {
+                c.iter()
+                    .map(|v| {
+                        *index.entry(v).or_insert_with(|| {
+                            names.push(v.to_owned());
+                            u32::try_from(names.len() - 1).unwrap_or(u32::MAX)
+                        })
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        (codes, names)
+    }
+
+    /// `column` at `row` as a number, with the file and line on error.
+    ///
+    /// # Errors
+    /// The value is not a finite number.
+    pub fn number(&self, column: &str, row: usize) -> Result<f64, Problem> {
+        let t = self.text(column, row);
+        match t.trim().parse::<f64>() {
+            Ok(x) if x.is_finite() => Ok(x),
+            _ => Err(self.error(column, row, &format!("'{t}' is not a finite number"))),
+        }
+    }
+
+    /// `column` at `row` as a number, or `None` if the cell is empty.
+    ///
+    /// # Errors
+    /// A non-empty value that is not a finite number.
+    pub fn optional(&self, column: &str, row: usize) -> Result<Option<f64>, Problem> {
+        if self.text(column, row).trim().is_empty() {
+            Ok(None)
+        } else {
+            self.number(column, row).map(Some)
+        }
+    }
+
+    /// `column` at `row` as a `;`-separated list of numbers.
+    ///
+    /// # Errors
+    /// An element that is not a finite number.
+    pub fn list(&self, column: &str, row: usize) -> Result<Vec<f64>, Problem> {
+        let t = self.text(column, row);
+        if t.trim().is_empty() {
+            return Ok(Vec::new());
+        }
+        t.split(';')
+            .map(|s| match s.trim().parse::<f64>() {
+                Ok(x) if x.is_finite() => Ok(x),
+                _ => Err(self.error(
+                    column,
+                    row,
+                    &format!("'{s}' in '{t}' is not a finite number"),
+                )),
+            })
+            .collect()
+    }
+
+    /// An error about the value of `column` at `row`, placed at its cell
+    /// (`file: line:column`), found by reading its file again, only on
+    /// this error path.
+    #[must_use]
+    pub fn error(&self, column: &str, row: usize, message: &str) -> Problem {
+        let message = format!("{column}: {message}");
+        let origin = self.frame.origin.get(row).copied();
+        let file = origin.and_then(|(f, _)| self.files.get(usize::try_from(f).ok()?));
+        let Some(file) = file.or(self.files.first()) else {
+            return Problem::new("", message);
+        };
+        let place = origin
+            .and_then(|(_, record)| cell_place(file, column, usize::try_from(record).ok()?))
+            .map_or_else(
+                || file.display().to_string(),
+                |(line, col)| format!("{}: {line}:{col}", file.display()),
+            );
+        Problem::new(place, message)
+    }
+}
+
+/// Line and column (1-based) of `column`'s cell in record `record` of the
+/// data CSV `file` (its column names are record 0).
+fn cell_place(file: &std::path::Path, column: &str, record: usize) -> Option<(usize, usize)> {
+    let text = std::fs::read_to_string(file).ok()?;
+    let all = records(&text, false).ok()?;
+    let i = all.first()?.cells.iter().position(|h| h == column)?;
+    Some(all.get(record)?.place(&text, i))
+}
