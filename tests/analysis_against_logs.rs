@@ -355,3 +355,58 @@ fn rows_from_the_log_or_from_the_csv_give_the_same_statistics() {
     assert_eq!(stats(&from_csv), stats(&from_log));
     assert_eq!(from_csv["inputs"], from_log["inputs"]);
 }
+
+#[test]
+fn a_csv_made_from_its_log_places_each_quoted_cell_as_a_csv_reader_reads_it() {
+    // Displays whose names the CSV must quote (a comma, a quote).
+    let protocol = std::fs::read_to_string(format!(
+        "{}/protocols/magnitude-quick.json",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap()
+    .replace("\"tactile\"", r#""tactile, \"fine\"""#);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("quoted.json");
+    std::fs::write(&path, protocol).unwrap();
+    let results = dir.path().join("results");
+    let o = frictionlab(&[
+        "simulate",
+        path.to_str().unwrap(),
+        "--participants",
+        "2",
+        "--seed",
+        "45",
+        "--out",
+        results.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut logs = 0;
+    for e in std::fs::read_dir(results.join("logs")).unwrap() {
+        let log =
+            frictionlab::results::read_log::<frictionlab::kinds::Registry>(&e.unwrap().path())
+                .unwrap();
+        let made = frictionlab::results::DataText::of(&log);
+        let read = frictionlab::results::reader::records(&made.text, true).unwrap();
+        assert_eq!(made.records().len(), log.trials.len());
+        assert_eq!(read.len(), log.trials.len() + 1);
+        let mut quoted = 0;
+        for (cells, record) in made.records().zip(&read[1..]) {
+            assert_eq!(record.cells.len(), made.columns.len());
+            for (i, cell) in record.cells.iter().enumerate() {
+                let written = frictionlab::results::csv::text(cell);
+                quoted += usize::from(written.starts_with('"'));
+                assert_eq!(cells.get(i), Some(written.as_str()), "cell {i}");
+            }
+            assert_eq!(cells.get(made.columns.len()), None);
+        }
+        assert!(quoted > 0, "no quoted cell to place");
+        logs += 1;
+    }
+    assert_eq!(logs, 2);
+    // The analysis takes those rows from the log, the display's name as
+    // the protocol has it.
+    let o = analyze(&results, &[]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s = summary(&results);
+    assert!(s.to_string().contains(r#"tactile, \"fine\""#), "{s}");
+}

@@ -20,7 +20,7 @@ use crate::problem::Problem;
 use crate::protocol::kind::Kinds;
 use crate::results::reader::{Record, records};
 use crate::results::{
-    COMMON_COLUMNS, ReadLog, ResultsDir, Source, data_files, data_rows, read_header,
+    COMMON_COLUMNS, DataText, ReadLog, ResultsDir, Source, data_files, read_header,
 };
 
 /// How the data CSVs are checked before they are analysed.
@@ -206,26 +206,45 @@ fn chunk_of_source<K: Kinds>(
     source: Source<'_, K>,
 ) -> Result<Chunk, Problem> {
     match source {
-        Source::Log { columns, cells, .. } => {
-            // The CSV is these cells: its kind is told as from the file,
-            // by the first row's `kind` cell, placed where the file has it.
-            let kind = columns.iter().position(|c| *c == "kind");
-            let first = cells.first().zip(kind).and_then(|(row, i)| {
-                let column: usize = row.iter().take(i).map(|c| c.chars().count() + 1).sum();
+        Source::Log { made, .. } => {
+            // The CSV is this text: its kind is told as from the file, by
+            // the first row's `kind` cell, placed where the file has it.
+            let kind = made.columns.iter().position(|c| *c == "kind");
+            let first = made.records().next().zip(kind).and_then(|(row, i)| {
+                let column: usize = (0..i)
+                    .map(|j| row.get(j).map_or(0, |c| c.chars().count()) + 1)
+                    .sum();
                 Some((unquote(row.get(i)?), (2, column + 1)))
             });
             let first = first.as_ref().map(|(k, at)| (k.as_ref(), *at));
-            let (kind, entry) = kind_of(analysed, csv, columns, first)?;
-            let mut chunk = chunk_for(kind, entry, columns);
-            let at = chunk_columns(&chunk, columns);
-            for (k, row) in cells.iter().enumerate() {
-                let cell = |i: usize| row.get(i).map_or(Cow::Borrowed(""), |c| unquote(c));
-                chunk.take(&at, cell, entry.counts_aborted, k + 1);
-            }
-            Ok(chunk)
+            let (kind, entry) = kind_of(analysed, csv, &made.columns, first)?;
+            Ok(chunk_of_made(kind, entry, made, true))
         }
         Source::Csv { text, records } => chunk_of_records(analysed, csv, text, records),
     }
+}
+
+/// The rows of a CSV made from its log, for the analysis of `kind`;
+/// `numbered`: each row placed by its record number (a file's), else not
+/// at all (sessions in memory).
+fn chunk_of_made<K: Kinds>(
+    kind: &'static str,
+    entry: &AnalysisEntry<K>,
+    made: &DataText,
+    numbered: bool,
+) -> Chunk {
+    let mut chunk = chunk_for(kind, entry, &made.columns);
+    let at = chunk_columns(&chunk, &made.columns);
+    for (k, row) in made.records().enumerate() {
+        let cell = |i: usize| row.get(i).map_or(Cow::Borrowed(""), unquote);
+        chunk.take(
+            &at,
+            cell,
+            entry.counts_aborted,
+            if numbered { k + 1 } else { 0 },
+        );
+    }
+    chunk
 }
 
 /// The rows of a CSV's `records` (the column names first), read from
@@ -401,14 +420,7 @@ impl<K: AnalysedKinds> Tables<K> {
                     format!("no analysis for the kind of session '{kind}'"),
                 ));
             };
-            let (columns, cells) = data_rows(log);
-            let mut chunk = chunk_for(name, entry, &columns);
-            let at = chunk_columns(&chunk, &columns);
-            for row in &cells {
-                let cell = |i: usize| row.get(i).map_or(Cow::Borrowed(""), |c| unquote(c));
-                chunk.take(&at, cell, entry.counts_aborted, 0);
-            }
-            chunks.push(Ok(chunk));
+            chunks.push(Ok(chunk_of_made(name, entry, &DataText::of(log), false)));
         }
         let files: Vec<PathBuf> = ordered.iter().map(|(csv, _)| csv.clone()).collect();
         Ok(Tables {

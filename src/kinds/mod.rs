@@ -45,6 +45,7 @@ use crate::protocol::{self, plan};
 use crate::time::Time;
 
 pub mod figures;
+mod tagged;
 
 /// A protocol of the registered kinds.
 pub type Protocol = protocol::Protocol<Registry>;
@@ -109,8 +110,9 @@ macro_rules! kinds {
             )*
         }
 
-        /// The kind-specific part of a record.
-        #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+        /// The kind-specific part of a record. Read tag first, without
+        /// buffering (`tagged.rs`).
+        #[derive(Debug, Clone, PartialEq, Serialize, JsonSchema)]
         #[serde(tag = "kind")]
         #[allow(
             clippy::large_enum_variant,
@@ -123,6 +125,55 @@ macro_rules! kinds {
                 #[serde(rename = $name)]
                 $variant(<$module::$kind as StudyKind>::Data),
             )*
+        }
+
+        /// [`TrialData`] read the general way (serde's tagged union), for
+        /// data whose `kind` is not its first key.
+        #[derive(Deserialize)]
+        #[serde(tag = "kind")]
+        #[allow(
+            clippy::large_enum_variant,
+            reason = "read once, then moved into a TrialData"
+        )]
+        enum TaggedData {
+            $(
+                $(#[cfg($cfg)])?
+                #[serde(rename = $name)]
+                $variant(<$module::$kind as StudyKind>::Data),
+            )*
+        }
+
+        impl From<TaggedData> for TrialData {
+            fn from(data: TaggedData) -> Self {
+                match data {
+                    $($(#[cfg($cfg)])? TaggedData::$variant(d) => TrialData::$variant(d),)*
+                }
+            }
+        }
+
+        impl<'de> Deserialize<'de> for TrialData {
+            fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                const NAMES: &[&str] = &[$($(#[cfg($cfg)])? $name,)*];
+                struct Data;
+                impl<'de> serde::de::Visitor<'de> for Data {
+                    type Value = TrialData;
+                    fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                        f.write_str("a trial's data, tagged by its kind")
+                    }
+                    fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<TrialData, A::Error> {
+                        tagged::read_tagged(
+                            map,
+                            NAMES,
+                            |kind, rest| match kind {
+                                $($(#[cfg($cfg)])? $name => Deserialize::deserialize(rest).map(TrialData::$variant),)*
+                                other => Err(serde::de::Error::unknown_variant(other, NAMES)),
+                            },
+                            |object| serde_json::from_value::<TaggedData>(object).map(TrialData::from),
+                        )
+                    }
+                }
+                d.deserialize_map(Data)
+            }
         }
 
         /// A live trial of each kind, for the engine.

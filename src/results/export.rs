@@ -5,9 +5,8 @@ use std::collections::BTreeSet;
 
 use super::csv::text;
 use super::folder::ResultsDir;
-use super::session_log::{Header, ReadLog, read_header};
+use super::session_log::{ReadLog, read_header};
 use super::{ResultsError, replace_file};
-use crate::protocol::engine::TrialRecord;
 use crate::protocol::kind::Kinds;
 
 /// The data CSV columns every kind has.
@@ -34,56 +33,113 @@ pub const COMMON_COLUMNS: [&str; 10] = [
 /// that added it).
 #[must_use]
 pub fn data_csv<K: Kinds>(log: &ReadLog<K>) -> String {
-    let (columns, rows) = data_rows(log);
-    csv_text(&columns, &rows)
+    DataText::of(log).text
 }
 
-/// The columns and the rows' cells of a session's data CSV
-/// ([`data_csv`]), as the file holds them (text quoted where it must be).
-#[must_use]
-pub fn data_rows<K: Kinds>(log: &ReadLog<K>) -> (Vec<&'static str>, Vec<Vec<String>>) {
-    let lsl = log
-        .trials
-        .iter()
-        .any(|r| r.lsl_start_s.is_some() || r.lsl_end_s.is_some());
-    let mut columns = data_columns::<K>(log.header.protocol.kind());
-    if lsl {
-        columns.extend(LSL_COLUMNS);
-    }
-    let rows = log
-        .trials
-        .iter()
-        .map(|r| {
-            let mut cells = data_cells(&log.header, r);
-            if lsl {
-                cells.push(super::csv::opt_num(r.lsl_start_s));
-                cells.push(super::csv::opt_num(r.lsl_end_s));
-            }
-            cells
-        })
-        .collect();
-    (columns, rows)
+/// A session's data CSV made from its log ([`data_csv`]): its columns, its
+/// text, and where each record's cells are in it, as the file holds them
+/// (text quoted where it must be). Written straight into one text: a log
+/// of a million trials makes its CSV without a string per cell.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DataText {
+    /// The columns.
+    pub columns: Vec<&'static str>,
+    /// The CSV's text, column names first.
+    pub text: String,
+    /// The byte where each cell of each record starts, then the end of the
+    /// text; every cell is followed by one `,` or line break.
+    starts: Vec<usize>,
+    /// Where each record's cells start in `starts`, then their end.
+    rows: Vec<usize>,
 }
 
-/// CSV text of `columns` and `rows` of cells (quoted already).
-#[must_use]
-pub fn csv_text(columns: &[&str], rows: &[Vec<String>]) -> String {
-    let width = rows
-        .first()
-        .map_or(0, |r| r.iter().map(|c| c.len() + 1).sum());
-    let mut csv = String::with_capacity((rows.len() + 1) * width.max(64));
-    csv.push_str(&columns.join(","));
-    csv.push('\n');
-    for cells in rows {
-        for (i, cell) in cells.iter().enumerate() {
-            if i > 0 {
-                csv.push(',');
-            }
-            csv.push_str(cell);
+impl DataText {
+    /// The data CSV of the session of `log`.
+    #[must_use]
+    pub fn of<K: Kinds>(log: &ReadLog<K>) -> Self {
+        use std::fmt::Write as _;
+        let lsl = log
+            .trials
+            .iter()
+            .any(|r| r.lsl_start_s.is_some() || r.lsl_end_s.is_some());
+        let mut columns = data_columns::<K>(log.header.protocol.kind());
+        if lsl {
+            columns.extend(LSL_COLUMNS);
         }
-        csv.push('\n');
+        let h = &log.header;
+        let (study, participant) = (text(&h.protocol_id), text(&h.participant));
+        let mut out = Self {
+            text: String::with_capacity((log.trials.len() + 1) * 24 * columns.len()),
+            starts: Vec::with_capacity(log.trials.len() * columns.len() + 1),
+            rows: Vec::with_capacity(log.trials.len() + 1),
+            columns,
+        };
+        out.text.push_str(&out.columns.join(","));
+        out.text.push('\n');
+        // `write!` to a String cannot fail.
+        for r in &log.trials {
+            out.rows.push(out.starts.len());
+            let kind = h.protocol.kind();
+            let _ = write!(out.cell(), "{study}");
+            let _ = write!(out.cell(), "{kind}");
+            let _ = write!(out.cell(), "{participant}");
+            let _ = write!(out.cell(), "{}", h.session);
+            let _ = write!(out.cell(), "{}", r.trial);
+            let _ = write!(out.cell(), "{}", text(&r.block));
+            let _ = write!(out.cell(), "{}", r.status.as_str());
+            let _ = write!(out.cell(), "{}", h.plan_seed);
+            let _ = write!(out.cell(), "{}", r.practice);
+            let _ = write!(out.cell(), "{}", r.repetition);
+            for c in K::row(&r.data) {
+                out.cell().push_str(&c);
+            }
+            if lsl {
+                out.cell().push_str(&super::csv::opt_num(r.lsl_start_s));
+                out.cell().push_str(&super::csv::opt_num(r.lsl_end_s));
+            }
+            out.text.push('\n');
+        }
+        out.rows.push(out.starts.len());
+        out.starts.push(out.text.len());
+        out
     }
-    csv
+
+    /// Starts a cell (after its separator, once the text is written) and
+    /// returns the text to write it to.
+    fn cell(&mut self) -> &mut String {
+        if self.rows.last() != Some(&self.starts.len()) {
+            self.text.push(',');
+        }
+        self.starts.push(self.text.len());
+        &mut self.text
+    }
+
+    /// The records' cells, each record's in column order.
+    #[must_use = "an iterator does nothing until read"]
+    pub fn records(&self) -> impl ExactSizeIterator<Item = Cells<'_>> {
+        self.rows.windows(2).map(|w| Cells {
+            text: &self.text,
+            starts: &self.starts[w[0]..=w[1]],
+        })
+    }
+}
+
+/// One record's cells in a [`DataText`].
+#[derive(Debug, Clone, Copy)]
+pub struct Cells<'a> {
+    text: &'a str,
+    /// Its cells' starts, then the start of the next record's first cell
+    /// (or the end of the text).
+    starts: &'a [usize],
+}
+
+impl<'a> Cells<'a> {
+    /// Cell `i` as the file holds it, if the record has one.
+    #[must_use]
+    pub fn get(&self, i: usize) -> Option<&'a str> {
+        let (&start, &next) = (self.starts.get(i)?, self.starts.get(i + 1)?);
+        self.text.get(start..next - 1)
+    }
 }
 
 /// The data-CSV columns of a session published on LSL (after the kind's).
@@ -96,27 +152,6 @@ pub fn data_columns<K: Kinds>(kind: &str) -> Vec<&'static str> {
     let mut out: Vec<&str> = COMMON_COLUMNS.to_vec();
     out.extend_from_slice(K::columns(kind).unwrap_or_default());
     out
-}
-
-/// The data-CSV cells of record `r` of the session of `h`, one per
-/// [`data_columns`] entry, as the file holds them (text quoted where it
-/// must be).
-#[must_use]
-pub fn data_cells<K: Kinds>(h: &Header<K>, r: &TrialRecord<K>) -> Vec<String> {
-    let mut row = vec![
-        text(&h.protocol_id),
-        h.protocol.kind().to_owned(),
-        text(&h.participant),
-        h.session.to_string(),
-        r.trial.to_string(),
-        text(&r.block),
-        r.status.as_str().to_owned(),
-        h.plan_seed.to_string(),
-        r.practice.to_string(),
-        r.repetition.to_string(),
-    ];
-    row.extend(K::row(&r.data));
-    row
 }
 
 /// Writes `dataset_description.json` listing every column of every data file

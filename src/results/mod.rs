@@ -36,8 +36,8 @@ use std::path::Path;
 
 pub use atomic::replace_file;
 pub use export::{
-    COMMON_COLUMNS, LSL_COLUMNS, csv_text, data_cells, data_columns, data_csv, data_rows,
-    kinds_present, write_dataset_description,
+    COMMON_COLUMNS, Cells, DataText, LSL_COLUMNS, data_columns, data_csv, kinds_present,
+    write_dataset_description,
 };
 pub use folder::{
     MAX_ID_CHARS, ResultsDir, SessionFiles, SessionOverview, SessionStatus, check_participant,

@@ -363,8 +363,11 @@ pub(super) fn parse_log_lines<K: Kinds>(
     bytes: &[u8],
 ) -> Result<(ReadLog<K>, Vec<usize>), ResultsError> {
     let mut header = None;
-    let mut trials = Vec::new();
-    let mut lines = Vec::new();
+    // About one record per line: the records are large, and a log of
+    // thousands would otherwise be moved each time the list grows.
+    let records = memchr::memchr_iter(b'\n', bytes).count();
+    let mut trials = Vec::with_capacity(records);
+    let mut lines = Vec::with_capacity(records);
     let mut scratch = Vec::new();
     let mut ended = false;
     let mut offset = 0_usize;
@@ -372,17 +375,12 @@ pub(super) fn parse_log_lines<K: Kinds>(
     let mut line_no = 0;
     while offset < bytes.len() {
         line_no += 1;
-        let end = bytes[offset..]
-            .iter()
-            .position(|&b| b == b'\n')
-            .map(|p| offset + p);
+        let end = memchr::memchr(b'\n', &bytes[offset..]).map(|p| offset + p);
         let (line, next, complete) = match end {
             Some(e) => (&bytes[offset..e], e + 1, true),
             None => (&bytes[offset..], bytes.len(), false),
         };
-        let parsed = std::str::from_utf8(line)
-            .map_err(|e| (e.valid_up_to() + 1, e.to_string()))
-            .and_then(|s| parse_line(s, &mut scratch).map_err(|e| (e.column(), e.to_string())));
+        let parsed = parse_line(line, &mut scratch);
         let is_last = next >= bytes.len();
         match parsed {
             Ok(l) if complete => {
@@ -441,17 +439,25 @@ pub(super) fn parse_log_lines<K: Kinds>(
 /// which spares serde buffering the whole line to find the tag: reading a
 /// large log is a third faster. Anything else, or a record that does not
 /// read that way, is read as a [`LogLine`], with its error.
-fn parse_line<K: Kinds>(s: &str, scratch: &mut Vec<u8>) -> serde_json::Result<LogLine<K>> {
-    const TRIAL: &str = r#"{"type":"trial","#;
-    if let Some(rest) = s.strip_prefix(TRIAL) {
+///
+/// A record read that way is UTF-8 text (serde_json checks each string,
+/// and JSON outside strings is ASCII); any other line is checked as text
+/// first. An error is its column (1-based) and message.
+fn parse_line<K: Kinds>(line: &[u8], scratch: &mut Vec<u8>) -> Result<LogLine<K>, (usize, String)> {
+    const TRIAL: &[u8] = br#"{"type":"trial","#;
+    if let Some(rest) = line.strip_prefix(TRIAL) {
         scratch.clear();
         scratch.push(b'{');
-        scratch.extend_from_slice(rest.as_bytes());
+        scratch.extend_from_slice(rest);
         if let Ok(record) = serde_json::from_slice::<TrialRecord<K>>(scratch) {
             return Ok(LogLine::Trial(record));
         }
     }
-    serde_json::from_str::<LogLine<K>>(s)
+    std::str::from_utf8(line)
+        .map_err(|e| (e.valid_up_to() + 1, e.to_string()))
+        .and_then(|s| {
+            serde_json::from_str::<LogLine<K>>(s).map_err(|e| (e.column(), e.to_string()))
+        })
 }
 
 /// Whether a record counts as completed.

@@ -14,7 +14,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::export::{csv_text, data_rows};
+use super::export::DataText;
 use super::folder::ResultsDir;
 use super::reader::{Record, records};
 use super::session_log::{Header, LogLine, ReadLog, parse_log_lines};
@@ -57,11 +57,9 @@ pub enum Source<'a, K: Kinds> {
     Log {
         /// The log.
         read: &'a ReadLog<K>,
-        /// The CSV's columns.
-        columns: &'a [&'static str],
-        /// Each trial record's cells, one per column, as the CSV holds
-        /// them (text quoted where it must be).
-        cells: &'a [Vec<String>],
+        /// The CSV as the log makes it: its columns, and each trial
+        /// record's cells as the CSV holds them.
+        made: &'a DataText,
     },
     /// The CSV's own records (the column names first), read from `text`:
     /// the log's rows in another notation of the same numbers, or with
@@ -299,19 +297,12 @@ fn compare<K: Kinds, T>(
     lines: &[usize],
     take: &(impl Fn(&Path, Source<'_, K>) -> T + Sync),
 ) -> Result<T, Problem> {
-    let (columns, cells) = data_rows(read);
-    let made = csv_text(&columns, &cells);
+    let made = DataText::of(read);
     // The CSV as its session wrote it, byte for byte: nothing to tell.
-    if made == text {
-        return Ok(take(
-            csv,
-            Source::Log {
-                read,
-                columns: &columns,
-                cells: &cells,
-            },
-        ));
+    if made.text == text {
+        return Ok(take(csv, Source::Log { read, made: &made }));
     }
+    let made = made.text;
     let unreadable = |e: super::reader::ReadError| {
         Problem::new(format!("{}: {}:1", csv.display(), e.line), e.message)
     };
