@@ -111,6 +111,20 @@ pub struct Section {
     pub html: String,
 }
 
+impl Section {
+    /// The section of a kind's `html` and its analysis's `summary`,
+    /// `notes` and `tables`.
+    #[must_use]
+    pub fn new(html: String, summary: Value, notes: Vec<String>, tables: Vec<Table>) -> Self {
+        Self {
+            summary,
+            notes,
+            tables,
+            html,
+        }
+    }
+}
+
 /// A finished analysis.
 #[derive(Debug, Clone)]
 pub struct Analysis {

@@ -1044,12 +1044,7 @@ impl KindAnalysis for Discrimination {
                 let design = designs_of::<Self, K>(context.designs).next();
                 let intervals = context.scope == Scope::Report;
                 let d = analysis::analyze(rows, context.folder, design, intervals)?;
-                Ok(Section {
-                    html: context.report(|| report::discrimination_section(&d)),
-                    summary: d.summary,
-                    notes: d.notes,
-                    tables: d.tables,
-                })
+                Ok(Section::new(context.report(|| report::discrimination_section(&d)), d.summary, d.notes, d.tables))
             },
         })
     }

@@ -644,12 +644,7 @@ impl KindAnalysis for Fitts {
             counted: analysis::counted,
             run: |rows, context| {
                 let f = analysis::analyze(rows)?;
-                Ok(Section {
-                    html: context.report(|| report::fitts_section(&f)),
-                    summary: f.summary,
-                    notes: f.notes,
-                    tables: f.tables,
-                })
+                Ok(Section::new(context.report(|| report::fitts_section(&f)), f.summary, f.notes, f.tables))
             },
         })
     }

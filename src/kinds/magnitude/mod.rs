@@ -517,19 +517,13 @@ impl KindAnalysis for Magnitude {
                 // scalings; a folder may hold both.
                 let seed = rows.where_filled("level", false);
                 let scaled = rows.where_filled("level", true);
-                let mut section = Section {
-                    html: String::new(),
-                    summary: Value::Null,
-                    notes: Vec::new(),
-                    tables: Vec::new(),
-                };
-                if !seed.is_empty() || scaled.is_empty() {
+                let mut section = if !seed.is_empty() || scaled.is_empty() {
                     let m = analysis::analyze(&seed, &display_order::<K>(context.designs))?;
-                    section.html = context.report(|| report::magnitude_section(&m));
-                    section.summary = m.summary;
-                    section.notes = m.notes;
-                    section.tables = m.tables;
-                }
+                    let html = context.report(|| report::magnitude_section(&m));
+                    Section::new(html, m.summary, m.notes, m.tables)
+                } else {
+                    Section::new(String::new(), Value::Null, Vec::new(), Vec::new())
+                };
                 if !scaled.is_empty() {
                     let results = scaling::scalings(&scaled)?;
                     let tables = scaling::tables(&results);

@@ -330,12 +330,7 @@ impl KindAnalysis for Paired {
             counted: analysis::counted,
             run: |rows, context| {
                 let p = analysis::analyze(rows)?;
-                Ok(Section {
-                    html: context.report(|| report::paired_section(&p)),
-                    summary: p.summary,
-                    notes: p.notes,
-                    tables: p.tables,
-                })
+                Ok(Section::new(context.report(|| report::paired_section(&p)), p.summary, p.notes, p.tables))
             },
         })
     }

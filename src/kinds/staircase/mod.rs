@@ -344,12 +344,7 @@ impl KindAnalysis for Staircase {
             counted: analysis::counted,
             run: |rows, _| {
                 let t = analysis::analyze(rows)?;
-                Ok(Section {
-                    html: String::new(),
-                    summary: t.summary,
-                    notes: t.notes,
-                    tables: t.tables,
-                })
+                Ok(Section::new(String::new(), t.summary, t.notes, t.tables))
             },
         })
     }
