@@ -22,6 +22,13 @@ impl Column {
         self.ends.push(self.text.len());
     }
 
+    /// Adds the cells of `other` after its own.
+    fn extend(&mut self, other: &Column) {
+        let base = self.text.len();
+        self.text.push_str(&other.text);
+        self.ends.extend(other.ends.iter().map(|e| e + base));
+    }
+
     fn get(&self, i: usize) -> Option<&str> {
         let end = *self.ends.get(i)?;
         let start = i.checked_sub(1).map_or(0, |k| self.ends[k]);
@@ -80,9 +87,7 @@ impl Frame {
     pub(super) fn append(&mut self, other: &Frame, file: usize) {
         for (name, column) in self.names.iter().zip(&mut self.columns) {
             if let Some(from) = other.column(name) {
-                for cell in from.iter() {
-                    column.push(cell);
-                }
+                column.extend(from);
             }
         }
         let file = u32::try_from(file).unwrap_or(u32::MAX);
@@ -111,7 +116,14 @@ impl Frame {
 
     /// The rows where `keep` holds.
     fn filter(&self, keep: &[bool]) -> Frame {
+        // Every row, or none (a folder of one form): no row by row copy.
+        if keep.iter().all(|k| *k) {
+            return self.clone();
+        }
         let mut out = Frame::new(&self.names);
+        if !keep.contains(&true) {
+            return out;
+        }
         for (row, _) in keep.iter().enumerate().filter(|(_, k)| **k) {
             for (to, from) in out.columns.iter_mut().zip(&self.columns) {
                 to.push(from.get(row).unwrap_or(""));
@@ -308,4 +320,59 @@ fn cell_place(file: &std::path::Path, column: &str, record: usize) -> Option<(us
     let all = records(&text, false).ok()?;
     let i = all.first()?.cells.iter().position(|h| h == column)?;
     Some(all.get(record)?.place(&text, i))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Rows of `level` values (empty for none), with their origins.
+    fn frame(levels: &[&str]) -> Frame {
+        let mut f = Frame::new(&["trial", "level"]);
+        for (k, level) in levels.iter().enumerate() {
+            f.push([k.to_string().as_str(), level], 0, k + 1);
+        }
+        f
+    }
+
+    fn rows(frame: Frame) -> Rows {
+        Rows::new(frame, Frame::default(), vec![PathBuf::from("a.csv")])
+    }
+
+    #[test]
+    fn where_filled_keeps_the_rows_asked_for_whole_some_or_none() {
+        let trials = |r: &Rows| {
+            (0..r.len())
+                .map(|i| r.text("trial", i).to_owned())
+                .collect::<Vec<_>>()
+        };
+        let mixed = rows(frame(&["", "2", " ", "4"]));
+        assert_eq!(trials(&mixed.where_filled("level", true)), ["1", "3"]);
+        assert_eq!(trials(&mixed.where_filled("level", false)), ["0", "2"]);
+        let filled = mixed.where_filled("level", true);
+        assert_eq!(filled.frame.origin, [(0, 2), (0, 4)]);
+        let all = rows(frame(&["1", "2"]));
+        assert_eq!(trials(&all.where_filled("level", true)), ["0", "1"]);
+        assert!(all.where_filled("level", false).is_empty());
+        assert_eq!(
+            all.where_filled("level", false).frame.names(),
+            ["trial", "level"]
+        );
+    }
+
+    #[test]
+    fn appended_frames_keep_every_cell_and_where_it_came_from() {
+        let mut all = Frame::new(&["trial", "level"]);
+        all.append(&frame(&["a", "b"]), 0);
+        all.append(&frame(&["", "c", "d"]), 1);
+        let r = rows(all);
+        let cells: Vec<(&str, &str)> = (0..r.len())
+            .map(|i| (r.text("trial", i), r.text("level", i)))
+            .collect();
+        assert_eq!(
+            cells,
+            [("0", "a"), ("1", "b"), ("0", ""), ("1", "c"), ("2", "d")]
+        );
+        assert_eq!(r.frame.origin, [(0, 1), (0, 2), (1, 1), (1, 2), (1, 3)]);
+    }
 }

@@ -10,7 +10,8 @@
 /// Text, quoted if it holds `,`, `"` or a line break.
 #[must_use]
 pub fn text(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r']) {
+    // Bytes, not chars: this runs for every text cell of every CSV.
+    if s.bytes().any(|b| matches!(b, b',' | b'"' | b'\n' | b'\r')) {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {
         s.to_owned()
