@@ -61,17 +61,21 @@ fn succeeded(o: &std::process::Output, what: &str) {
     );
 }
 
-/// The one data CSV and log of a results folder.
-fn files(out: &Path) -> (PathBuf, PathBuf) {
-    let pick = |dir: &str| {
-        let mut v: Vec<PathBuf> = std::fs::read_dir(out.join(dir))
+/// The one data CSV and log of a results folder, and the temporaries of
+/// an atomic rewrite a kill -9 cut short (`.NAME.PID.N.partial`).
+fn files(out: &Path) -> (PathBuf, PathBuf, Vec<PathBuf>) {
+    let mut partials = Vec::new();
+    let mut pick = |dir: &str| {
+        let (temporaries, mut v): (Vec<PathBuf>, Vec<PathBuf>) = std::fs::read_dir(out.join(dir))
             .unwrap()
             .map(|e| e.unwrap().path())
-            .collect();
+            .partition(|p| p.to_string_lossy().ends_with(".partial"));
+        partials.extend(temporaries);
         assert_eq!(v.len(), 1, "{v:?}");
         v.remove(0)
     };
-    (pick("data"), pick("logs"))
+    let (csv, log) = (pick("data"), pick("logs"));
+    (csv, log, partials)
 }
 
 /// The data CSV of `read` without the rows of its aborted presentations
@@ -138,7 +142,12 @@ fn interrupt_and_resume(case: &Case, pace: f64, reference: &str) -> bool {
         child.stderr.take().unwrap().read_to_string(&mut s).unwrap();
         s
     };
-    let (csv, log) = files(out);
+    let (csv, log, partials) = files(out);
+    // Only a kill -9 can leave a rewrite's temporary.
+    assert!(
+        partials.is_empty() || case.signal == "KILL",
+        "{case:?}: {partials:?}"
+    );
     let interrupted = if status.success() {
         false
     } else {
@@ -182,6 +191,8 @@ fn interrupt_and_resume(case: &Case, pace: f64, reference: &str) -> bool {
     };
     let read = read_log::<Registry>(&log).unwrap();
     assert!(read.ended, "{case:?}");
+    // The resume removed what the kill left.
+    assert_eq!(files(out).2, Vec::<PathBuf>::new(), "{case:?}");
     let got = without_requeued(&std::fs::read_to_string(&csv).unwrap(), &read);
     assert_eq!(
         got, reference,
@@ -208,7 +219,7 @@ fn a_signal_at_any_moment_then_resume_gives_the_uninterrupted_data_issue_42() {
                 .output()
                 .unwrap();
             assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-            let (csv, log) = files(dir.path());
+            let (csv, log, _) = files(dir.path());
             let read = read_log::<Registry>(&log).unwrap();
             let length_s = read.trials.last().unwrap().ended_s.secs() / pace;
             let text = std::fs::read_to_string(csv).unwrap();
@@ -345,7 +356,7 @@ fn sessions_of_log_format_1_still_read_analyse_and_resume_issue_42() {
             succeeded(&o, name);
         };
         analyze("report-before");
-        let (_, log) = files(out);
+        let (_, log, _) = files(out);
         let before = read_log::<Registry>(&log).unwrap();
         assert_eq!(before.header.format, "frictionlab-log/1");
         let last_end = before.trials.last().unwrap().ended_s;
@@ -393,5 +404,52 @@ fn copy_dir(from: &Path, to: &Path) {
         } else {
             std::fs::copy(e.path(), target).unwrap();
         }
+    }
+}
+
+/// A kill -9 in the middle of a file's atomic rewrite leaves its
+/// temporary (`.NAME.PID.N.partial`; the file itself is whole). The resume,
+/// which holds the session's lock, removes those of its own session's CSV
+/// and streams, and nothing else.
+#[test]
+fn a_resume_removes_the_temporaries_a_kill_left_of_its_own_files_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path();
+    let fixture =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/log-v1/magnitude-quick");
+    copy_dir(&fixture, out);
+    let (csv, _, _) = files(out);
+    let name = csv.file_name().unwrap().to_string_lossy().into_owned();
+    let stem = name.trim_end_matches("_data.csv");
+    std::fs::create_dir_all(out.join("streams")).unwrap();
+    let ours = [
+        out.join("data").join(format!(".{name}.999999.3.partial")),
+        out.join("streams")
+            .join(format!(".{stem}_trial-2_run-1_stream.csv.999999.4.partial")),
+    ];
+    let others = [
+        out.join("data")
+            .join(".study-other_subject-old_session-1_data.csv.999999.1.partial"),
+        out.join("streams").join(format!(
+            ".{stem}x_trial-2_run-1_stream.csv.999999.5.partial"
+        )),
+    ];
+    for p in ours.iter().chain(&others) {
+        std::fs::write(p, "half a fil").unwrap();
+    }
+    let o = Command::new(BIN)
+        .arg("run")
+        .arg(protocol("magnitude-quick"))
+        .args(["--participant", "old", "--responder", "sim", "--resume"])
+        .args(["--pace", "1e6", "--out"])
+        .arg(out)
+        .output()
+        .unwrap();
+    succeeded(&o, "resume");
+    for p in &ours {
+        assert!(!p.exists(), "{} left", p.display());
+    }
+    for p in &others {
+        assert!(p.exists(), "{} removed", p.display());
     }
 }

@@ -43,3 +43,70 @@ pub fn replace_file(path: &Path, contents: &[u8], durable: bool) -> Result<(), R
     }
     result.map_err(io_err(path))
 }
+
+/// Removes the temporaries [`replace_file`] left in `dir` for files whose
+/// names start with `prefix` (`.PREFIX....partial`): a process killed
+/// (kill -9, power loss) between creating one and renaming it leaves it
+/// behind; the file it was replacing is whole. Only for files no other
+/// process may be replacing (a session's, under its session lock).
+/// Returns how many were removed.
+///
+/// # Errors
+/// A temporary that cannot be removed; a missing `dir` is nothing to do.
+pub fn remove_partials(dir: &Path, prefix: &str) -> Result<usize, ResultsError> {
+    let entries = match std::fs::read_dir(dir) {
+        Ok(entries) => entries,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(0),
+        Err(e) => return Err(io_err(dir)(e)),
+    };
+    let mut removed = 0;
+    for entry in entries {
+        let path = entry.map_err(io_err(dir))?.path();
+        let name = path.file_name().map(|n| n.to_string_lossy().into_owned());
+        if name.is_some_and(|n| {
+            n.strip_prefix('.')
+                .is_some_and(|n| n.starts_with(prefix) && n.ends_with(".partial"))
+        }) {
+            std::fs::remove_file(&path).map_err(io_err(&path))?;
+            removed += 1;
+        }
+    }
+    Ok(removed)
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, reason = "tests: a panic is a failure")]
+    use super::*;
+
+    #[test]
+    fn a_killed_writers_temporaries_of_the_named_files_are_removed_and_no_other_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let names = [
+            "s1_data.csv",
+            ".s1_data.csv.4242.7.partial",
+            ".s1_data.csv.4243.0.partial",
+            ".s2_data.csv.4242.1.partial",
+            "s1_data.csv.partial",
+        ];
+        for n in names {
+            std::fs::write(d.join(n), "x").unwrap();
+        }
+        assert_eq!(remove_partials(d, "s1_data.csv").unwrap(), 2);
+        let mut left: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        left.sort();
+        assert_eq!(
+            left,
+            [
+                ".s2_data.csv.4242.1.partial",
+                "s1_data.csv",
+                "s1_data.csv.partial"
+            ]
+        );
+        assert_eq!(remove_partials(&d.join("missing"), "s1").unwrap(), 0);
+    }
+}

@@ -34,7 +34,7 @@ mod verify;
 use std::io;
 use std::path::Path;
 
-pub use atomic::replace_file;
+pub use atomic::{remove_partials, replace_file};
 pub use export::{
     COMMON_COLUMNS, Cells, DataText, LSL_COLUMNS, data_columns, data_csv, kinds_present,
     write_dataset_description,

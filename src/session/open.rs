@@ -16,7 +16,7 @@ use crate::protocol::engine::TrialSource;
 use crate::protocol::kind::Kinds;
 use crate::results::{
     LOG_FORMAT, ResultsDir, ResultsError, SessionFiles, SessionLog, data_csv, kinds_present,
-    read_log, replace_file, sha256_hex, write_dataset_description,
+    read_log, remove_partials, replace_file, sha256_hex, write_dataset_description,
 };
 use crate::time::Time;
 
@@ -302,6 +302,12 @@ impl PlannedSession {
                 // line and its CSV rewrite left the CSV a trial short,
                 // which no later trial would mend after the last one.
                 replace_file(&files.csv, data_csv(read).as_bytes(), false)?;
+                // A kill -9 during a rewrite (of the CSV, of a stream) left
+                // its temporary; this session's files are ours alone now.
+                StreamRecorder::remove_partials(dir, &read.header)?;
+                if let (Some(data), Some(name)) = (files.csv.parent(), files.csv.file_name()) {
+                    remove_partials(data, &name.to_string_lossy())?;
+                }
                 if self.lsl {
                     write_dataset_description::<Registry>(
                         dir,

@@ -75,6 +75,26 @@ impl StreamRecorder {
         }
     }
 
+    /// Removes the temporaries of the streams of the session of `header`
+    /// that a killed writer left (`results::remove_partials`).
+    ///
+    /// # Errors
+    /// A temporary that cannot be removed.
+    pub fn remove_partials(dir: &ResultsDir, header: &Header) -> Result<usize, ResultsError> {
+        match Self::new(dir, header, true).stem {
+            Some(stem) => crate::results::remove_partials(
+                &dir.root().join("streams"),
+                &format!(
+                    "{}_",
+                    stem.file_name()
+                        .map(|n| n.to_string_lossy())
+                        .unwrap_or_default()
+                ),
+            ),
+            None => Ok(0),
+        }
+    }
+
     /// From now on every stream has the columns of a device with more than
     /// one axis.
     pub fn multi_axis(&mut self) {
