@@ -110,8 +110,9 @@ macro_rules! kinds {
             )*
         }
 
-        /// The kind-specific part of a record. Read tag first, without
-        /// buffering (`tagged.rs`).
+        // Read tag first, without serde's buffering (`tagged.rs`); its
+        // doc comment below is the log schema's description of it.
+        /// The kind-specific part of a record.
         #[derive(Debug, Clone, PartialEq, Serialize, JsonSchema)]
         #[serde(tag = "kind")]
         #[allow(
