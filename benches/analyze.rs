@@ -21,7 +21,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use frictionlab::analysis::{Check, analyze, analyze_with};
 use frictionlab::kinds::TrialData;
 use frictionlab::kinds::magnitude::MagnitudeData;
-use frictionlab::kinds::{Header, LogLine, ReadLog, Registry, TrialRecord};
+use frictionlab::kinds::{Header, LogLine, LoggedTrial, ReadLog, Registry, TrialRecord};
 use frictionlab::protocol::engine::Status;
 use frictionlab::results::{LOG_FORMAT, ResultsDir, data_csv};
 use rand::{RngExt, SeedableRng};
@@ -61,13 +61,13 @@ fn generate(dir: &Path) {
             planned_trials: 1000,
             population: None,
         };
-        let trials: Vec<TrialRecord> = (0..1000_usize)
+        let trials: Vec<LoggedTrial> = (0..1000_usize)
             .map(|trial| {
                 let display = if trial < 500 { "tactile" } else { "force" };
                 let stimulus = trial % 30;
                 let delta = [0.1, 0.2, 0.3][stimulus / 10];
                 let mu_s = 0.375 + 0.025 * (stimulus % 10) as f64;
-                TrialRecord {
+                LoggedTrial::new(TrialRecord {
                     trial,
                     block: display.into(),
                     block_index: usize::from(trial >= 500),
@@ -91,10 +91,7 @@ fn generate(dir: &Path) {
                         parameter: None,
                         level: None,
                     }),
-                    rendering: Vec::new(),
-                    lsl_start_s: None,
-                    lsl_end_s: None,
-                }
+                })
             })
             .collect();
         let line = |l: &LogLine| {

@@ -57,7 +57,7 @@ use frictionlab_core::render::Renderer;
 
 use crate::friction::{Float, ForceLimit, Input, ModelParams};
 use crate::problem::Problem;
-use crate::protocol::engine::{RenderEntry, RenderMode};
+use crate::results::{RenderEntry, RenderMode};
 use frictionlab_core::Real;
 
 /// One row of a stream.

@@ -311,7 +311,7 @@ fn sessions_on_an_on_board_emulator_complete_and_rerender_bit_exact_issue_15() {
                 r.trial
             );
             for e in &r.rendering {
-                assert_eq!(e.mode, frictionlab::protocol::engine::RenderMode::OnBoard);
+                assert_eq!(e.mode, frictionlab::results::RenderMode::OnBoard);
                 assert_eq!(e.float, frictionlab::friction::Float::F32);
                 assert_eq!(e.rate_hz, 5000.0, "the device's loop rate");
             }

@@ -24,7 +24,8 @@ use std::time::{Duration, Instant};
 
 use frictionlab::device::frictionlab::wire::{Decoder, MAX_FRAME, Message, encode, status};
 use frictionlab::kinds::Registry;
-use frictionlab::protocol::engine::{RenderMode, Status};
+use frictionlab::protocol::engine::Status;
+use frictionlab::results::RenderMode;
 use frictionlab::results::read_log;
 
 /// One QEMU at a time.

@@ -155,8 +155,8 @@ fn a_stream_without_rows_re_renders_as_nothing_to_replay() {
 /// them.
 mod on_board {
     use frictionlab::friction::{Float, Input, ModelParams};
-    use frictionlab::protocol::engine::{RenderEntry, RenderMode};
     use frictionlab::rerender::Row;
+    use frictionlab::results::{RenderEntry, RenderMode};
     use frictionlab_core::onboard::BoardLoop;
     use frictionlab_core::wire::{Message, status};
 

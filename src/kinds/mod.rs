@@ -57,8 +57,10 @@ pub type PlannedTrial = plan::PlannedTrial<Registry>;
 pub type Engine = engine::Engine<Registry>;
 /// What the engine asks the shell to do.
 pub type Action = engine::Action<Registry>;
-/// A logged trial record of the registered kinds.
+/// A trial's record of the registered kinds, as the engine decided it.
 pub type TrialRecord = engine::TrialRecord<Registry>;
+/// A trial's record as logged, with what the session added.
+pub type LoggedTrial = crate::results::LoggedTrial<Registry>;
 /// A session log's header.
 pub type Header = crate::results::Header<Registry>;
 /// One session-log line.

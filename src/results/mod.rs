@@ -16,7 +16,8 @@
 //! `create_new`, so a session is never overwritten.
 //!
 //! The parts: `session_log.rs` (the log's lines, writing and reading it back,
-//! torn lines), `folder.rs` (the folder's layout, file names, session
+//! torn lines), `trial.rs` (a trial as logged: the engine's record and what
+//! the session added), `folder.rs` (the folder's layout, file names, session
 //! numbering), `export.rs` (the data CSVs and `dataset_description.json`;
 //! each kind writes its own cells with `csv.rs`), `reader.rs` (the one CSV
 //! reader), `verify.rs` (each data CSV held against its log) and
@@ -29,6 +30,7 @@ mod folder;
 mod lock;
 pub mod reader;
 mod session_log;
+mod trial;
 mod verify;
 
 use std::io;
@@ -48,6 +50,7 @@ pub use session_log::{
     Header, LOG_FORMAT, LogLine, ReadLog, SessionLog, is_completed, log_json_schema, parse_log,
     read_header, read_log, sha256_hex,
 };
+pub use trial::{LoggedTrial, RenderEntry, RenderMode};
 pub use verify::{Checked, NO_LOG, Source, Verified, data_files, verify};
 
 /// Why a results operation failed.

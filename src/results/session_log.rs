@@ -11,6 +11,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
+use super::trial::LoggedTrial;
 use super::{ResultsError, io_err, lock};
 use crate::protocol::Protocol;
 use crate::protocol::engine::{Status, TrialRecord};
@@ -71,7 +72,7 @@ pub enum LogLine<K: Kinds> {
     /// The header (first line).
     Header(Box<Header<K>>),
     /// A completed or aborted trial.
-    Trial(TrialRecord<K>),
+    Trial(LoggedTrial<K>),
     /// The session was resumed here.
     Resumed {
         /// First trial run after the resume.
@@ -253,7 +254,7 @@ pub struct ReadLog<K: Kinds> {
     /// The header.
     pub header: Header<K>,
     /// Trial records in log order.
-    pub trials: Vec<TrialRecord<K>>,
+    pub trials: Vec<LoggedTrial<K>>,
     /// Whether the session ended.
     pub ended: bool,
     /// Length of the valid part (up to the last complete line), bytes.
@@ -276,7 +277,7 @@ impl<K: Kinds> ReadLog<K> {
     /// A trial is final when completed, or aborted and not re-queued.
     #[must_use]
     pub fn next_trial(&self) -> usize {
-        crate::protocol::engine::next_position(&self.trials)
+        crate::protocol::engine::next_position(self.trials.iter().map(|t| &t.record))
     }
 }
 
@@ -449,7 +450,7 @@ fn parse_line<K: Kinds>(line: &[u8], scratch: &mut Vec<u8>) -> Result<LogLine<K>
         scratch.clear();
         scratch.push(b'{');
         scratch.extend_from_slice(rest);
-        if let Ok(record) = serde_json::from_slice::<TrialRecord<K>>(scratch) {
+        if let Ok(record) = serde_json::from_slice::<LoggedTrial<K>>(scratch) {
             return Ok(LogLine::Trial(record));
         }
     }

@@ -111,7 +111,7 @@ impl Port {
 
     /// How `tick`'s render was stepped.
     pub(super) fn how(&self, tick: &Tick) -> super::renders::How {
-        use crate::protocol::engine::RenderMode;
+        use crate::results::RenderMode;
         match tick.mode {
             Mode::Host => super::renders::How {
                 mode: RenderMode::HostLoop,
@@ -243,7 +243,7 @@ impl Device {
     pub(super) fn sim_how(&self) -> Option<super::renders::How> {
         match self {
             Device::Sim { device, dt, .. } => Some(super::renders::How {
-                mode: crate::protocol::engine::RenderMode::Simulated,
+                mode: crate::results::RenderMode::Simulated,
                 float: crate::friction::Float::F64,
                 rate_hz: 1.0 / dt.secs(),
                 ramp_s: 0.0,

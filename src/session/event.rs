@@ -3,7 +3,7 @@
 
 use crate::device::DeviceSample;
 use crate::interrupt::Signal;
-use crate::kinds::{Action, LogLine, PlannedTrial, TrialRecord};
+use crate::kinds::{Action, LogLine, LoggedTrial, PlannedTrial};
 use crate::protocol::engine::Input;
 use crate::time::Time;
 
@@ -105,7 +105,7 @@ pub enum Event {
         /// Session time.
         t: Time,
         /// The record.
-        record: Box<TrialRecord>,
+        record: Box<LoggedTrial>,
     },
     /// The device stopped answering (after it had answered).
     DeviceLost {

@@ -30,9 +30,10 @@ use serde_json::{Map, Value};
 use super::renders::How;
 use super::{Event, Feed, Responder, Session, SessionError};
 use crate::device::haptic::{Offer, SampleSink, Tick};
-use crate::kinds::{Action, Header, LogLine, TrialRecord};
+use crate::kinds::{Action, Header, LogLine, LoggedTrial};
 use crate::lsl::{Clock, DeviceStream, Node, Publisher, SampleTap, Streaming};
-use crate::protocol::engine::{Answer, Input, RenderMode, Screen};
+use crate::protocol::engine::{Answer, Input, Screen};
+use crate::results::RenderMode;
 use crate::time::Time;
 
 /// What the record annotation shares with the publisher: LSL's clock and
@@ -243,7 +244,7 @@ impl Publishing {
             wait_s: streaming.wait_s,
         };
         session.wait_for_shell();
-        session.annotate_records(Box::new(move |record: &mut TrialRecord| {
+        session.annotate_records(Box::new(move |record: &mut LoggedTrial| {
             let mut stamps = stamps.lock().unwrap_or_else(PoisonError::into_inner);
             let end = stamps.clock.at(record.ended_s);
             let start = stamps
@@ -533,7 +534,7 @@ impl Publishing {
     /// during the write (flushed and synced, the write rule), so its clock
     /// goes on from now: the next trial starts when it really does, and
     /// the device stream has a gap as long as the write.
-    fn written<R: Responder>(&mut self, t: Time, record: &TrialRecord, session: &Session<R>) {
+    fn written<R: Responder>(&mut self, t: Time, record: &LoggedTrial, session: &Session<R>) {
         let end = record
             .lsl_end_s
             .unwrap_or_else(|| self.clock().at(record.ended_s));

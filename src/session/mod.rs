@@ -117,9 +117,10 @@ pub use view::{Phase, Progress, TRACE_EVERY_S, TRACE_LENGTH_S, TracePoint, View}
 use crate::device::DeviceSample;
 use crate::device::LinkState;
 use crate::friction::ModelParams;
-use crate::kinds::{Action, Engine, Header, LogLine, ReadLog, Registry, TrialRecord};
+use crate::kinds::{Action, Engine, Header, LogLine, LoggedTrial, ReadLog, Registry};
+use crate::protocol::engine::Input;
 use crate::protocol::engine::TrialSource;
-use crate::protocol::engine::{Input, RenderMode};
+use crate::results::RenderMode;
 use crate::results::{ResultsDir, ResultsError};
 use crate::time::Time;
 use device::Device;
@@ -230,7 +231,7 @@ enum Gate {
 }
 
 /// What a shell adds to each trial's record where it is written.
-pub type Annotate = Box<dyn FnMut(&mut TrialRecord) + Send>;
+pub type Annotate = Box<dyn FnMut(&mut LoggedTrial) + Send>;
 
 /// A session being run: see the module docs.
 pub struct Session<R: Responder> {
@@ -496,7 +497,8 @@ impl<R: Responder> Session<R> {
         };
     }
 
-    /// Has `annotate` add the shell's part to each trial's record just
+    /// Has `annotate` add the shell's part to each trial's record (a
+    /// [`LoggedTrial`]: the engine's record, the session's renders) just
     /// before it is written.
     pub fn annotate_records(&mut self, annotate: Annotate) {
         self.annotate = Some(annotate);
@@ -951,7 +953,7 @@ impl<R: Responder> Session<R> {
             Action::Render(model) => render = Some(self.render(model.as_ref())),
             Action::Physical(model) => self.device.set_physical(model.as_ref()),
             Action::Record(record) => {
-                let mut record = record.clone();
+                let mut record = LoggedTrial::new(record.clone());
                 record.rendering = self.renders.take();
                 if let Some(annotate) = &mut self.annotate {
                     annotate(&mut record);

@@ -11,7 +11,7 @@ use std::sync::Arc;
 use super::SessionError;
 use super::stream::StreamRecorder;
 use crate::kinds::{Engine, Protocol, Registry};
-use crate::kinds::{Header, LogLine, ReadLog, TrialRecord};
+use crate::kinds::{Header, LogLine, LoggedTrial, ReadLog};
 use crate::protocol::engine::TrialSource;
 use crate::protocol::kind::Kinds;
 use crate::results::{
@@ -222,7 +222,7 @@ impl PlannedSession {
     #[must_use]
     pub fn engine(&self) -> Engine {
         let history = match &self.opening {
-            Opening::Resume { read, .. } => read.trials.clone(),
+            Opening::Resume { read, .. } => read.trials.iter().map(|t| t.record.clone()).collect(),
             Opening::New { .. } => Vec::new(),
         };
         Engine::resume(self.header().protocol.clone(), self.source.clone(), history)
@@ -373,7 +373,7 @@ pub(super) enum Log {
 
 impl Log {
     /// A trial record, on disk ([`OpenLog::write_record`]) or kept.
-    pub(super) fn write_record(&mut self, record: &TrialRecord) -> Result<(), ResultsError> {
+    pub(super) fn write_record(&mut self, record: &LoggedTrial) -> Result<(), ResultsError> {
         match self {
             Log::Memory(read) => {
                 read.trials.push(record.clone());

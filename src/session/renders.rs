@@ -8,7 +8,7 @@
 use std::collections::VecDeque;
 
 use crate::friction::ModelParams;
-use crate::protocol::engine::{RenderEntry, RenderMode};
+use crate::results::{RenderEntry, RenderMode};
 
 /// Renders sent that a tick may still report.
 const KEPT: usize = 16;

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use super::open::OpenLog;
 use crate::device::DeviceSample;
-use crate::kinds::{Header, LogLine, TrialRecord};
+use crate::kinds::{Header, LogLine, LoggedTrial};
 use crate::results::csv::Num;
 use crate::results::{ResultsDir, ResultsError, data_csv, replace_file};
 
@@ -166,7 +166,7 @@ impl OpenLog {
     ///
     /// # Errors
     /// I/O.
-    pub fn write_record(&mut self, record: &TrialRecord) -> Result<(), ResultsError> {
+    pub fn write_record(&mut self, record: &LoggedTrial) -> Result<(), ResultsError> {
         let run = 1 + self
             .read
             .trials

@@ -505,7 +505,8 @@ mod tests {
         assert_eq!(log.header.planned_trials, 0, "unknown in advance");
         // The experimenter's live plot gets the same track, through the
         // registry (the window names no kind).
-        let plotted = crate::kinds::Registry::tracks(&log.trials);
+        let records: Vec<_> = log.trials.iter().map(|t| t.record.clone()).collect();
+        let plotted = crate::kinds::Registry::tracks(&records);
         assert_eq!(plotted.len(), 1);
         assert_eq!(plotted[0].answers, track);
         let csv = csv(dir.path());

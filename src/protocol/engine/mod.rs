@@ -48,7 +48,7 @@ use crate::time::Time;
 mod record;
 mod source;
 
-pub use record::{Choice, RenderEntry, RenderMode, Status, TrialRecord};
+pub use record::{Choice, Status, TrialRecord};
 pub use source::{TrialSource, next_position};
 
 /// A participant's answer.
@@ -463,9 +463,6 @@ impl<K: Kinds> Engine<K> {
             started_s: live.started,
             ended_s: now,
             data,
-            rendering: Vec::new(),
-            lsl_start_s: None,
-            lsl_end_s: None,
         };
         self.history.push(record.clone());
         self.out.push_back(Action::Render(None));

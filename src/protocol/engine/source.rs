@@ -44,9 +44,11 @@ impl<K: Kinds> TrialSource<K> for Plan<K> {
 /// The first position not yet finally logged: where a resume starts. A
 /// trial is final when completed, or aborted and not re-queued.
 #[must_use]
-pub fn next_position<K: Kinds>(history: &[TrialRecord<K>]) -> usize {
+pub fn next_position<'a, K: Kinds + 'a>(
+    history: impl IntoIterator<Item = &'a TrialRecord<K>>,
+) -> usize {
     history
-        .iter()
+        .into_iter()
         .filter(|r| !r.requeued)
         .map(|r| r.trial + 1)
         .max()
