@@ -8,7 +8,7 @@
 //! what the core never does) and the table of models.
 
 pub use frictionlab_core::Real;
-pub use frictionlab_core::check::{Checker, ParamProblem, Rule};
+pub use frictionlab_core::check::{ParamChecks, ParamProblem, Rule};
 pub use frictionlab_core::friction::*;
 
 use crate::problem::Problem;
@@ -39,9 +39,9 @@ impl Validate for ModelParams {
 }
 
 /// The problems the checks in `checks` report, located at their fields.
-pub fn checked(checks: impl FnOnce(&mut Checker<'_>)) -> Vec<Problem> {
+pub fn checked(checks: impl FnOnce(&mut ParamChecks<'_>)) -> Vec<Problem> {
     let mut problems = Vec::new();
-    checks(&mut Checker::new(&mut |p| problems.push(problem(p))));
+    checks(&mut ParamChecks::new(&mut |p| problems.push(problem(p))));
     problems
 }
 

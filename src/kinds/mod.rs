@@ -35,7 +35,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use crate::analysis::{AnalysedKinds, AnalysisEntry, KindAnalysis};
-use crate::protocol::check::Checks;
+use crate::protocol::check::ValueChecks;
 use crate::protocol::engine::{self, Input, TrialSource};
 use crate::protocol::kind::{
     Block, Holds, KindInfo, Kinds, LiveTrial, Next, Quality, StudyKind, TrackAnswers,
@@ -269,7 +269,7 @@ macro_rules! kinds {
                 }
             }
 
-            fn check_design(design: &Design, c: &mut Checks) {
+            fn check_design(design: &Design, c: &mut ValueChecks) {
                 match design {
                     $($(#[cfg($cfg)])? Design::$variant(d) => <$module::$kind as StudyKind>::check(d, c),)*
                 }

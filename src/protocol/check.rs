@@ -1,7 +1,7 @@
 //! Stage 1's second half: value checks on a protocol whose structure
 //! [`super::load`] has read (ranges, unique and valid ids, cross-references,
 //! zero trials), each problem named by its JSON path. The design's checks
-//! are its kind's ([`super::kind::StudyKind::check`]), made with [`Checks`].
+//! are its kind's ([`super::kind::StudyKind::check`]), made with [`ValueChecks`].
 
 use std::collections::HashSet;
 
@@ -21,12 +21,12 @@ pub const MAX_TRIALS: u64 = 100_000;
 /// Collects the problems of value checks, each at its JSON path under a
 /// prefix (`design.` for a kind's checks).
 #[derive(Debug)]
-pub struct Checks<'a> {
+pub struct ValueChecks<'a> {
     errors: &'a mut Vec<Problem>,
     prefix: &'static str,
 }
 
-impl Checks<'_> {
+impl ValueChecks<'_> {
     /// A problem at `path` (under the prefix).
     pub fn err(&mut self, path: &str, message: impl Into<String>) {
         self.errors
@@ -124,7 +124,7 @@ pub fn shown(x: f64) -> String {
 /// first, from the fields alone; a plan over [`MAX_TRIALS`] is refused
 /// before the design's own checks run.
 pub(super) fn check<K: Kinds>(p: &Protocol<K>, errors: &mut Vec<Problem>) {
-    let mut c = Checks { errors, prefix: "" };
+    let mut c = ValueChecks { errors, prefix: "" };
     if let Some(why) = id_problem(&p.id) {
         c.err("id", why);
     }
@@ -156,7 +156,7 @@ pub(super) fn check<K: Kinds>(p: &Protocol<K>, errors: &mut Vec<Problem>) {
     }
     K::check_design(
         &p.design,
-        &mut Checks {
+        &mut ValueChecks {
             errors: c.errors,
             prefix: "design.",
         },

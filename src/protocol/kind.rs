@@ -30,7 +30,7 @@ use serde::de::DeserializeOwned;
 use serde_json::Value;
 
 use super::Protocol;
-use super::check::Checks;
+use super::check::ValueChecks;
 use super::engine::{Action, Input, Question, TrialRecord, TrialSource};
 use super::load::Walk;
 use super::plan::resolve;
@@ -93,7 +93,7 @@ pub trait Kinds: Debug + Clone + Copy + PartialEq + Send + Sync + 'static {
     /// reporting every problem to `w`.
     fn read_design(w: &mut Walk, v: &Value, path: &str) -> Option<Self::Design>;
     /// Value checks on a read design.
-    fn check_design(design: &Self::Design, c: &mut Checks);
+    fn check_design(design: &Self::Design, c: &mut ValueChecks);
     /// A new design of the kind named `kind` ([`StudyKind::template`]).
     fn template(kind: &str) -> Option<Value>;
     /// The fixed plan's trials for one repetition of its blocks
@@ -197,7 +197,7 @@ pub trait StudyKind: Sized + 'static {
     fn read(w: &mut Walk, v: &Value, path: &str) -> Option<Self::Design>;
 
     /// Value checks on a read design (ranges, references, zero trials).
-    fn check(design: &Self::Design, c: &mut Checks);
+    fn check(design: &Self::Design, c: &mut ValueChecks);
 
     /// A new design of this kind (its `design` object, tagged `kind`), valid
     /// as it stands and small: where the window's protocol builder starts a

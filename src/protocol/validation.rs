@@ -15,7 +15,7 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::check::Checks;
+use super::check::ValueChecks;
 
 /// What a validation row judges (see the module docs).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -158,7 +158,7 @@ pub fn steps(path: &str) -> Result<Vec<Step<'_>>, String> {
 }
 
 /// A row's value checks, at `at` (`validation[i]`).
-pub(super) fn check(v: &Validation, at: &str, c: &mut Checks<'_>) {
+pub(super) fn check(v: &Validation, at: &str, c: &mut ValueChecks<'_>) {
     for (path, text) in [
         ("experiment", &v.experiment),
         ("band_reasons", &v.band_reasons),

@@ -78,15 +78,15 @@ impl core::fmt::Display for ParamProblem {
 }
 
 /// Collects the problems of one parameter object: `report` gets each.
-pub struct Checker<'a> {
+pub struct ParamChecks<'a> {
     within: Option<&'static str>,
     report: &'a mut dyn FnMut(ParamProblem),
 }
 
-impl<'a> Checker<'a> {
-    /// A checker reporting to `report`.
+impl<'a> ParamChecks<'a> {
+    /// Checks reporting each problem to `report`.
     pub fn new(report: &'a mut dyn FnMut(ParamProblem)) -> Self {
-        Checker {
+        ParamChecks {
             within: None,
             report,
         }

@@ -44,7 +44,7 @@ use serde_json::Value;
 use crate::analysis::{AnalysisEntry, KindAnalysis, Scope, Section, designs_of};
 use crate::friction::ModelParams;
 use crate::kinds::paired::{Compare, Paired, PairedData, PairedTrial};
-use crate::protocol::check::{Checks, MAX_TRIALS};
+use crate::protocol::check::{ValueChecks, MAX_TRIALS};
 use crate::protocol::engine::{Action, Choice, Input, Status, TrialRecord, TrialSource};
 use crate::protocol::kind::{TrackAnswers, Holds, Kinds, LiveTrial, Next, Quality, StudyKind};
 use crate::protocol::load::Walk;
@@ -370,7 +370,7 @@ pub use crate::friction::{parameter_problem, parameter_value, with_parameter};
 
 /// Checks the adaptive method; returns the smallest and largest difference
 /// it may present.
-fn method_range(method: &Method, c: &mut Checks) -> (f64, f64) {
+fn method_range(method: &Method, c: &mut ValueChecks) -> (f64, f64) {
     match method {
         Method::Staircase(s) => {
             for (k, &step) in s.steps.iter().enumerate() {
@@ -411,7 +411,7 @@ pub const MAX_GRID: usize = 10_000;
 /// points ([`MAX_GRID`]), and the session's trials, `levels` tracks of at
 /// most `max_trials` (QUEST+) or `stop_trials` (a staircase, when set; one
 /// stopped by reversals alone ends when its answers say).
-fn method_size(method: &Method, levels: u64, c: &mut Checks) {
+fn method_size(method: &Method, levels: u64, c: &mut ValueChecks) {
     let most = match method {
         Method::QuestPlus(q) => {
             for (name, grid) in [
@@ -529,7 +529,7 @@ impl StudyKind for Discrimination {
         })
     }
 
-    fn check(d: &DiscriminationDesign, c: &mut Checks) {
+    fn check(d: &DiscriminationDesign, c: &mut ValueChecks) {
         c.positive_duration("exploration_s", d.exploration_s);
         method_size(&d.method, d.levels.len() as u64, c);
         if d.question.trim().is_empty() {

@@ -20,7 +20,7 @@ use serde_json::Value;
 
 use crate::analysis::{AnalysisEntry, KindAnalysis, Section};
 use crate::friction::ModelParams;
-use crate::protocol::check::Checks;
+use crate::protocol::check::ValueChecks;
 use crate::protocol::engine::{Action, Input, Screen};
 use crate::protocol::kind::{Block, Holds, Kinds, LiveTrial, Next, StudyKind};
 use crate::protocol::load::{Walk, join};
@@ -319,7 +319,7 @@ impl StudyKind for Fitts {
         })
     }
 
-    fn check(d: &FittsDesign, c: &mut Checks) {
+    fn check(d: &FittsDesign, c: &mut ValueChecks) {
         c.positive("cursor_m", d.cursor_m);
         c.positive_duration("timeout_s", d.timeout_s);
         if d.taps < 2 {

@@ -21,7 +21,7 @@ use serde_json::Value;
 
 use crate::analysis::{AnalysisEntry, KindAnalysis, Section, designs_of};
 use crate::friction::{ModelParams, NakanoParams, Validate, parameter_problem, with_parameter};
-use crate::protocol::check::Checks;
+use crate::protocol::check::ValueChecks;
 use crate::protocol::engine::{Action, Answer, Input, Question, Screen};
 use crate::protocol::kind::{
     Block, Exploration, Holds, Kinds, LiveTrial, Next, Quality, StudyKind,
@@ -163,7 +163,7 @@ pub fn stimulus_model(model: &ModelParams, s: Stimulus) -> ModelParams {
 
 /// Checks a scaling: the reference has the parameter, and every level is
 /// a valid value of it.
-fn check_scaling(sc: &Scaling, c: &mut Checks) {
+fn check_scaling(sc: &Scaling, c: &mut ValueChecks) {
     if sc.display.trim().is_empty() {
         c.err("scaling.display", "must not be empty");
     }
@@ -319,7 +319,7 @@ impl StudyKind for Magnitude {
         })
     }
 
-    fn check(d: &MagnitudeDesign, c: &mut Checks) {
+    fn check(d: &MagnitudeDesign, c: &mut ValueChecks) {
         c.positive_duration("exploration_s", d.exploration_s);
         if let Some(scaling) = &d.scaling {
             check_scaling(scaling, c);

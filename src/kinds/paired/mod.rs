@@ -16,7 +16,7 @@ use serde_json::Value;
 
 use crate::analysis::{AnalysisEntry, KindAnalysis, Section};
 use crate::protocol::Condition;
-use crate::protocol::check::Checks;
+use crate::protocol::check::ValueChecks;
 use crate::protocol::engine::{Action, Answer, Choice, Input, Question, Screen};
 use crate::protocol::kind::{Block, Exploration, Holds, Kinds, LiveTrial, Next, StudyKind};
 use crate::protocol::load::Walk;
@@ -119,7 +119,7 @@ impl StudyKind for Paired {
         })
     }
 
-    fn check(d: &PairedDesign, c: &mut Checks) {
+    fn check(d: &PairedDesign, c: &mut ValueChecks) {
         c.duration("reference_s", d.reference_s);
         c.positive_duration("exploration_s", d.exploration_s);
         let ids = c.condition_ids("conditions", d.conditions.iter().map(|c| c.id.as_str()));

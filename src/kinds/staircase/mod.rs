@@ -28,7 +28,7 @@ use crate::kinds::magnitude::{Stimulus, stimulus_model};
 use crate::kinds::paired::{Compare, Paired, PairedData, PairedTrial};
 
 pub mod view;
-use crate::protocol::check::{Checks, MAX_TRIALS};
+use crate::protocol::check::{ValueChecks, MAX_TRIALS};
 use crate::protocol::engine::{Action, Input, Status, TrialRecord, TrialSource};
 use crate::protocol::kind::{Holds, Kinds, LiveTrial, Next, StudyKind, TrackAnswers};
 use crate::protocol::load::Walk;
@@ -146,7 +146,7 @@ impl StudyKind for Staircase {
         })
     }
 
-    fn check(d: &StaircaseDesign, c: &mut Checks) {
+    fn check(d: &StaircaseDesign, c: &mut ValueChecks) {
         if coefficients(&d.reference).is_none() {
             c.err("reference.model", "the reference needs a stick-slip model");
         }

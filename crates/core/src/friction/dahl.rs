@@ -38,7 +38,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{ForceLimit, Input, Output, Phase};
-use crate::check::Checker;
+use crate::check::ParamChecks;
 use crate::real::Real;
 
 /// Parameters of the Dahl model.
@@ -76,7 +76,7 @@ impl Default for DahlParams {
 
 impl DahlParams {
     /// Reports every invalid field.
-    pub fn check(&self, c: &mut Checker<'_>) {
+    pub fn check(&self, c: &mut ParamChecks<'_>) {
         c.positive("sigma_n_m", self.sigma_n_m);
         c.positive("fc_pos_n", self.fc_pos_n);
         c.positive("fc_neg_n", self.fc_neg_n);

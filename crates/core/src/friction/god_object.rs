@@ -48,7 +48,7 @@ use core::marker::PhantomData;
 use serde::{Deserialize, Serialize};
 
 use super::{ForceLimit, Input, Output, Phase};
-use crate::check::Checker;
+use crate::check::ParamChecks;
 use crate::real::Real;
 
 /// How the static coefficient behaves during a stick phase.
@@ -60,7 +60,7 @@ pub trait StaticFrictionLaw: Copy {
         self.coefficients::<f64>().mu_s(stick_time_s)
     }
     /// Reports every invalid field.
-    fn check(&self, c: &mut Checker<'_>);
+    fn check(&self, c: &mut ParamChecks<'_>);
 }
 
 /// A static friction law in the float `T`: `mu_s(t) = mu_d + b log10(c t +
@@ -116,7 +116,7 @@ impl StaticFrictionLaw for ConstantStatic {
             c: T::ZERO,
         }
     }
-    fn check(&self, c: &mut Checker<'_>) {
+    fn check(&self, c: &mut ParamChecks<'_>) {
         if c.non_negative("mu_s", self.mu_s) & c.non_negative("mu_d", self.mu_d) {
             c.exceeds("mu_s", self.mu_s, "mu_d", self.mu_d, false);
         }
@@ -159,7 +159,7 @@ impl StaticFrictionLaw for TimeVaryingStatic {
             c: T::of(self.c_per_s),
         }
     }
-    fn check(&self, c: &mut Checker<'_>) {
+    fn check(&self, c: &mut ParamChecks<'_>) {
         c.non_negative("mu_d", self.mu_d);
         c.positive("b", self.b);
         c.positive("c_per_s", self.c_per_s);
@@ -241,7 +241,7 @@ impl<L: Default> Default for GodObjectParams<L> {
 
 impl<L: StaticFrictionLaw> GodObjectParams<L> {
     /// Reports every invalid field.
-    pub fn check(&self, c: &mut Checker<'_>) {
+    pub fn check(&self, c: &mut ParamChecks<'_>) {
         c.positive("proxy_mass_kg", self.proxy_mass_kg);
         c.positive("coupling_stiffness_n_m", self.coupling_stiffness_n_m);
         c.non_negative("coupling_damping_n_s_m", self.coupling_damping_n_s_m);

@@ -42,7 +42,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{ForceLimit, Input, Output, Phase};
-use crate::check::Checker;
+use crate::check::ParamChecks;
 use crate::real::Real;
 
 /// Parameters of the modified Karnopp model and its virtual coupling.
@@ -86,7 +86,7 @@ impl Default for KarnoppParams {
 
 impl KarnoppParams {
     /// Reports every invalid field.
-    pub fn check(&self, c: &mut Checker<'_>) {
+    pub fn check(&self, c: &mut ParamChecks<'_>) {
         let ok = c.positive("block_mass_kg", self.block_mass_kg)
             & c.non_negative("coupling_stiffness_n_m", self.coupling_stiffness_n_m)
             & c.non_negative("coupling_damping_n_s_m", self.coupling_damping_n_s_m)

@@ -38,7 +38,7 @@ pub mod viscous;
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
-use crate::check::{Checker, ParamProblem};
+use crate::check::{ParamChecks, ParamProblem};
 use crate::real::Real;
 
 pub use dahl::{Dahl, DahlParams};
@@ -131,7 +131,7 @@ impl<T: Real> ForceLimit<T> {
     pub fn new(limit_n: T) -> Result<Self, ParamProblem> {
         let mut problem = None;
         let mut report = |p| problem = Some(p);
-        Checker::new(&mut report).positive("force_limit_n", limit_n);
+        ParamChecks::new(&mut report).positive("force_limit_n", limit_n);
         match problem {
             Some(p) => Err(p),
             None => Ok(ForceLimit(limit_n)),
@@ -400,7 +400,7 @@ impl ModelParams {
     /// Reports every invalid parameter to `report`, with field names
     /// relative to this object. Allocates nothing.
     pub fn check(&self, report: &mut dyn FnMut(ParamProblem)) {
-        let mut c = Checker::new(report);
+        let mut c = ParamChecks::new(report);
         match self {
             Self::GodObjectConstant(p) => p.check(&mut c),
             Self::GodObjectTimeVarying(p) => p.check(&mut c),

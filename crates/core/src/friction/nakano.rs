@@ -55,7 +55,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{ForceLimit, Input, Output, Phase};
-use crate::check::{Checker, Rule};
+use crate::check::{ParamChecks, Rule};
 use crate::real::Real;
 
 /// Below this the burst envelope is exactly 0, drive units (see
@@ -115,7 +115,7 @@ impl Default for NakanoParams {
 
 impl NakanoParams {
     /// Reports every invalid field.
-    pub fn check(&self, c: &mut Checker<'_>) {
+    pub fn check(&self, c: &mut ParamChecks<'_>) {
         let ok = c.positive("mass_kg", self.mass_kg)
             & c.positive("stiffness_n_m", self.stiffness_n_m)
             & c.non_negative("damping_n_s_m", self.damping_n_s_m)

@@ -9,7 +9,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{ForceLimit, Input, Output, Phase};
-use crate::check::Checker;
+use crate::check::ParamChecks;
 use crate::real::Real;
 
 /// Parameters of the viscous model.
@@ -32,7 +32,7 @@ impl Default for ViscousParams {
 
 impl ViscousParams {
     /// Reports every invalid field.
-    pub fn check(&self, c: &mut Checker<'_>) {
+    pub fn check(&self, c: &mut ParamChecks<'_>) {
         c.non_negative("damping_n_s_m", self.damping_n_s_m);
     }
 }
