@@ -312,6 +312,7 @@ pub(super) fn inverse3_emulator_command(
     target: &str,
     version: Option<String>,
     no_device: bool,
+    lockstep: bool,
 ) -> Result<(), Failure> {
     use crate::device::inverse3::{self, emulator};
     let place = format!("inverse3:{target}");
@@ -322,6 +323,7 @@ pub(super) fn inverse3_emulator_command(
     let options = emulator::Options {
         version: version.unwrap_or_else(|| emulator::VERSION.to_owned()),
         with_device: !no_device,
+        lockstep,
     };
     emit(&format!(
         "Inverse Service emulator {} on {address}{}\n",

@@ -203,9 +203,10 @@ enum Command {
         /// inverse3: a service with no Inverse3 on it.
         #[arg(long)]
         no_device: bool,
-        /// haply2diy: advance the physics 1 ms per torque frame instead of
-        /// in real time (two hosts that send the same bytes read the same
-        /// angles back).
+        /// haply2diy, inverse3: advance the physics 1 ms (one host period)
+        /// per torque frame or client message instead of in real time (two
+        /// hosts that send the same bytes read the same angles back, and a
+        /// host the machine stalls stalls the device with it).
         #[arg(long)]
         lockstep: bool,
         /// haply2diy: append every frame the board takes and every reply,
@@ -499,18 +500,22 @@ pub fn main() -> ExitCode {
                 path.trim_start_matches("inverse3").trim_start_matches(':'),
                 service_version,
                 no_device,
+                lockstep,
             ),
             Some(path) => {
                 haply2diy_emulator_command(Path::new(path), lockstep, transcript.as_deref())
             }
-            None if lockstep || transcript.is_some() => Err(Failure::from(vec![UserError::new(
-                if lockstep {
-                    "--lockstep"
-                } else {
-                    "--transcript"
-                },
-                "only for an emulated haply2diy:PATH".to_owned(),
-            )])),
+            None if lockstep || transcript.is_some() => Err(Failure::from(vec![if lockstep {
+                UserError::new(
+                    "--lockstep",
+                    "only for an emulated haply2diy:PATH or inverse3".to_owned(),
+                )
+            } else {
+                UserError::new(
+                    "--transcript",
+                    "only for an emulated haply2diy:PATH".to_owned(),
+                )
+            }])),
             None => emulator_command(Path::new(&path), on_board, link_delay_ms),
         },
         Command::FirmwareQemu { elf, link } => firmware_qemu_command(&elf, link.as_deref()),

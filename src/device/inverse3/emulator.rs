@@ -50,6 +50,11 @@ pub const TRACK_RANGE_M: f64 = 0.1;
 pub const COMMAND_LASTS_S: f64 = 0.05;
 /// Physics step, s.
 pub const STEP_S: f64 = 0.0005;
+/// Physics steps per client message in lockstep ([`Options::lockstep`]).
+const LOCKSTEP_STEPS: u32 = 2;
+/// The time a client message advances the physics in lockstep, s: one
+/// period of the host's loop ([`super::RATE_HZ`]).
+pub const LOCKSTEP_S: f64 = STEP_S * LOCKSTEP_STEPS as f64;
 /// The service version the emulator states.
 pub const VERSION: &str = "3.5.0";
 /// The emulated device's id.
@@ -100,6 +105,14 @@ impl Plant {
     /// Advances to `t_s` in steps of [`STEP_S`].
     pub fn advance(&mut self, t_s: f64) {
         while self.t_s + STEP_S <= t_s {
+            self.step(STEP_S);
+            self.t_s += STEP_S;
+        }
+    }
+
+    /// Advances one host period, [`LOCKSTEP_S`] ([`Options::lockstep`]).
+    pub fn advance_lockstep(&mut self) {
+        for _ in 0..LOCKSTEP_STEPS {
             self.step(STEP_S);
             self.t_s += STEP_S;
         }
@@ -213,6 +226,11 @@ pub struct Options {
     pub version: String,
     /// Whether it lists an Inverse3 (false: an inventory with none).
     pub with_device: bool,
+    /// Advances the physics one host period ([`LOCKSTEP_S`]) per client
+    /// message instead of in real time: a host the machine stalls stalls
+    /// the device with it, so what a client reads follows from what it
+    /// sent, whatever the load.
+    pub lockstep: bool,
 }
 
 impl Default for Options {
@@ -220,13 +238,15 @@ impl Default for Options {
         Options {
             version: VERSION.into(),
             with_device: true,
+            lockstep: false,
         }
     }
 }
 
 /// Serves clients on `listener` until it fails: each WebSocket client in
-/// its own thread, on one shared plant advanced in real time; plain HTTP
-/// requests get `/version`.
+/// its own thread, on one shared plant advanced in real time (or in
+/// lockstep with the messages, [`Options::lockstep`]); plain HTTP requests
+/// get `/version`.
 ///
 /// # Errors
 /// The listener failed.
@@ -269,7 +289,9 @@ fn client(
         let mut p = plant
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        p.advance(start.elapsed().as_secs_f64());
+        if !options.lockstep {
+            p.advance(start.elapsed().as_secs_f64());
+        }
         let mut f = p.frame(session_id, inventory);
         if !options.with_device {
             f.inverse3.clear();
@@ -290,7 +312,11 @@ fn client(
             let mut p = plant
                 .lock()
                 .unwrap_or_else(std::sync::PoisonError::into_inner);
-            p.advance(start.elapsed().as_secs_f64());
+            if options.lockstep {
+                p.advance_lockstep();
+            } else {
+                p.advance(start.elapsed().as_secs_f64());
+            }
             if options.with_device {
                 p.apply(&message);
             }
