@@ -9,7 +9,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --quiet --release
-bin=target/release/frictionlab
+bin="${CARGO_TARGET_DIR:-target}/release/frictionlab"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 

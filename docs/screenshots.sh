@@ -24,7 +24,7 @@ if [ -n "${FRICTIONLAB_BIN:-}" ]; then
     bin=$FRICTIONLAB_BIN
 else
     cargo build --release --quiet
-    bin=target/release/frictionlab
+    bin="${CARGO_TARGET_DIR:-target}/release/frictionlab"
 fi
 out=docs/screenshots
 work=$(mktemp -d)
