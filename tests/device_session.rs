@@ -259,7 +259,7 @@ fn a_device_path_that_is_not_a_serial_port_is_bad_input() {
 fn a_live_gui_session_runs_on_the_emulated_device() {
     use frictionlab::protocol::engine::{Answer, Input, Screen};
     use frictionlab::session::SessionRequest;
-    use frictionlab::session::{DeviceChoice, Feed, LiveSession, Phase};
+    use frictionlab::session::{DeviceChoice, Feed, LiveSession, SessionState};
 
     let dir = tempfile::tempdir().unwrap();
     let dev = dir.path().join("dev");
@@ -292,7 +292,7 @@ fn a_live_gui_session_runs_on_the_emulated_device() {
     let start = Instant::now();
     let mut followed = false;
     let mut p99 = None;
-    while live.phase() != Phase::Finished && start.elapsed() < Duration::from_secs(40) {
+    while live.state() != SessionState::Finished && start.elapsed() < Duration::from_secs(40) {
         live.feed(Feed::Frame(start.elapsed().as_secs_f64()))
             .unwrap();
         live.set_hand_target(Some(0.004));
@@ -315,7 +315,7 @@ fn a_live_gui_session_runs_on_the_emulated_device() {
     }
     emu.kill().unwrap();
     emu.wait().unwrap();
-    assert_eq!(live.phase(), Phase::Finished, "{:?}", live.view());
+    assert_eq!(live.state(), SessionState::Finished, "{:?}", live.view());
     assert!(followed, "the device followed the pointer's hand drive");
     let p99 = p99.expect("the loop period is reported");
     assert!(p99 > 0.0 && p99.is_finite());
@@ -348,7 +348,7 @@ fn a_live_gui_session_runs_on_the_emulated_device() {
 #[test]
 fn a_live_session_on_a_silent_device_writes_nothing() {
     use frictionlab::session::SessionRequest;
-    use frictionlab::session::{DeviceChoice, Feed, LiveSession, Phase};
+    use frictionlab::session::{DeviceChoice, Feed, LiveSession, SessionState};
 
     let (_master, slave) = serialport::TTYPort::pair().unwrap();
     let port = serialport::SerialPort::name(&slave).unwrap();
@@ -385,7 +385,7 @@ fn a_live_session_on_a_silent_device_writes_nothing() {
     assert!(live.view().screen.is_none(), "no trial started");
     assert!(!out.exists(), "nothing written while waiting");
     live.feed(Feed::Abort).unwrap();
-    assert_eq!(live.phase(), Phase::Aborted);
+    assert_eq!(live.state(), SessionState::Aborted);
     assert!(!out.exists(), "nothing written after the abort");
     assert!(!live.log_path().exists());
     drop(slave);

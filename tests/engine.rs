@@ -118,7 +118,7 @@ fn fitts_counts_hits_inside_the_lit_target_and_logs_every_click() {
     let a = drain(&mut e);
     // A = 16 mm, W = 3 mm, D = 1 mm: W' = 2 mm; first lit target at -8 mm.
     assert!(a.iter().any(
-        |a| matches!(a, Action::Show(Screen::Fitts { lit_m, other_m, .. })
+        |a| matches!(a, Action::Show(Screen::Targets { lit_m, other_m, .. })
         if (*lit_m + 0.008).abs() < 1e-12 && (*other_m - 0.008).abs() < 1e-12)
     ));
     e.handle(s(1.5), Input::Click { x_m: -0.0085 }); // hit: 0.5 mm from centre, W'/2 = 1 mm

@@ -22,7 +22,7 @@ use frictionlab::gui::{FrictionlabApp, Launch, to_screen};
 use frictionlab::kinds::{LogLine, Registry};
 use frictionlab::protocol::engine::Screen;
 use frictionlab::results::read_log;
-use frictionlab::session::{LiveSession, Phase};
+use frictionlab::session::{LiveSession, SessionState};
 
 use common::window::click;
 
@@ -90,7 +90,7 @@ fn start(h: &mut Harness<'_, FrictionlabApp>) {
 /// session is over.
 fn participant_step(h: &mut Harness<'_, FrictionlabApp>, magnitude: &str) -> bool {
     let l = live(h);
-    if l.phase() != Phase::Running {
+    if l.state() != SessionState::Running {
         return false;
     }
     if l.view().prompt.is_some() {
@@ -124,7 +124,7 @@ fn participant_step(h: &mut Harness<'_, FrictionlabApp>, magnitude: &str) -> boo
                 },
             );
         }
-        Some(Screen::Fitts { lit_m, .. }) => fitts_tap(h, lit_m),
+        Some(Screen::Targets { lit_m, .. }) => fitts_tap(h, lit_m),
         None => h.step(),
     }
     true
@@ -220,7 +220,7 @@ fn a_quick_magnitude_session_runs_by_clicks_and_typed_numbers_and_ends_with_its_
     run_to_end(&mut h, "2.5", 40);
 
     let l = live(&h);
-    assert_eq!(l.phase(), Phase::Finished);
+    assert_eq!(l.state(), SessionState::Finished);
     let rows = csv_rows(l.csv());
     assert_eq!(rows.len(), 1 + 6, "header and 6 trials");
     assert!(column(&rows, "status").iter().all(|s| s == "completed"));
@@ -275,7 +275,7 @@ fn a_paired_comparison_session_switches_stimuli_takes_the_answer_and_finishes() 
     start(&mut h);
     run_to_end(&mut h, "1", 20);
     let l = live(&h);
-    assert_eq!(l.phase(), Phase::Finished);
+    assert_eq!(l.state(), SessionState::Finished);
     let read = read_log::<Registry>(l.log_path()).unwrap();
     assert_eq!(read.trials.len(), 1);
     let rows = csv_rows(l.csv());
@@ -294,7 +294,7 @@ fn a_discrimination_session_is_answered_by_clicks_to_the_end_issue_17() {
     start(&mut h);
     run_to_end(&mut h, "1", 200);
     let l = live(&h);
-    assert_eq!(l.phase(), Phase::Finished);
+    assert_eq!(l.state(), SessionState::Finished);
     let rows = csv_rows(l.csv());
     assert_eq!(column(&rows, "choice"), vec!["second"; 24]);
     let tracks = frictionlab::kinds::discrimination::tracks(l.engine().history());
@@ -327,7 +327,7 @@ fn a_fitts_session_follows_the_mouse_takes_mouse_and_space_bar_clicks_and_finish
     assert!((x - 0.005).abs() < 1e-3, "device at {x} m, pointer at 5 mm");
     run_to_end(&mut h, "1", 200);
     let l = live(&h);
-    assert_eq!(l.phase(), Phase::Finished);
+    assert_eq!(l.state(), SessionState::Finished);
     let rows = csv_rows(l.csv());
     assert_eq!(rows.len(), 1 + 4);
     let status = column(&rows, "status");
@@ -365,14 +365,14 @@ fn abort_then_resume_continues_where_the_session_stopped() {
     );
     click(&mut h, "Save note");
     click(&mut h, "Pause");
-    assert_eq!(live(&h).phase(), Phase::Paused);
+    assert_eq!(live(&h).state(), SessionState::Paused);
     click(&mut h, "Resume");
     assert!(matches!(
         live(&h).view().screen,
         Some(Screen::Explore { .. })
     ));
     click(&mut h, "Abort session");
-    assert_eq!(live(&h).phase(), Phase::Aborted);
+    assert_eq!(live(&h).state(), SessionState::Aborted);
     let log = live(&h).log_path().to_owned();
     let read = read_log::<Registry>(&log).unwrap();
     assert!(!read.ended);
@@ -567,7 +567,7 @@ fn the_lsl_box_publishes_the_session_or_says_why_it_cannot_issue_34() {
     click(&mut h, "Continue");
     run_to_end(&mut h, "2.5", 40);
     let l = live(&h);
-    assert_eq!(l.phase(), Phase::Finished);
+    assert_eq!(l.state(), SessionState::Finished);
     let read = read_log::<Registry>(l.log_path()).unwrap();
     assert_eq!(read.trials.len(), 6);
     for pair in read.trials.windows(2) {

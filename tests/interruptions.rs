@@ -27,7 +27,7 @@ use frictionlab::kinds::{LogLine, Registry};
 use frictionlab::protocol::engine::Status;
 use frictionlab::results::{ResultsDir, data_csv, read_log};
 use frictionlab::session::{
-    DeviceChoice, Feed, Phase, SessionRequest, participant_seed, sim_id, sim_participant,
+    DeviceChoice, Feed, SessionRequest, SessionState, participant_seed, sim_id, sim_participant,
 };
 use frictionlab::time::Time;
 
@@ -296,13 +296,13 @@ fn a_pause_at_any_moment_gives_the_uninterrupted_data_issue_42() {
                 frictionlab::session::Session::begin(&results, &req, sim_participant).unwrap();
             let mut frame = 0_u32;
             let mut paused = 0;
-            while s.phase() != Phase::Finished {
+            while s.state() != SessionState::Finished {
                 frame += 1;
                 let wall = f64::from(frame) / 60.0;
                 if Some(frame) == pause_at {
                     s.handle(Feed::Pause).unwrap();
                 }
-                if s.phase() == Phase::Paused {
+                if s.state() == SessionState::Paused {
                     paused += 1;
                     if paused == 40 {
                         s.handle(Feed::Resume).unwrap();

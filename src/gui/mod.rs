@@ -38,7 +38,7 @@ pub use frames::FrameStats;
 pub use participant::{WORKSPACE_HALF_M, to_m, to_screen};
 
 use crate::protocol::engine::{Answer, Choice, Input};
-use crate::session::{DeviceChoice, Feed, LiveSession, Phase};
+use crate::session::{DeviceChoice, Feed, LiveSession, SessionState};
 use builder::BuilderPanel;
 use results::ResultsPanel;
 use session::SessionPanel;
@@ -434,7 +434,7 @@ impl eframe::App for FrictionlabApp {
             if let Err(e) = live.feed(Feed::Frame(now)) {
                 self.error = Some(format!("error: {e}"));
             }
-            if matches!(live.phase(), Phase::Running | Phase::Paused) {
+            if matches!(live.state(), SessionState::Running | SessionState::Paused) {
                 ctx.request_repaint();
             }
         }

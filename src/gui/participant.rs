@@ -6,7 +6,7 @@ use eframe::egui::{self, Color32, Key, Rect, RichText, Sense, Stroke, StrokeKind
 
 use super::Command;
 use crate::protocol::engine::{Choice, Question, Screen};
-use crate::session::{LiveSession, Phase};
+use crate::session::{LiveSession, SessionState};
 
 /// Half the width of the workspace strip, m: the simulated device's 32 mm
 /// range plus a margin on each side.
@@ -30,20 +30,20 @@ pub(crate) fn show(
     ui.spacing_mut().button_padding = vec2(16.0, 10.0);
     let view = live.view();
     let now = live.now();
-    match live.phase() {
-        Phase::Finished => {
+    match live.state() {
+        SessionState::Finished => {
             big(ui, "Thank you! The session is complete.");
             return;
         }
-        Phase::Aborted => {
+        SessionState::Aborted => {
             big(ui, "The session has been stopped.");
             return;
         }
-        Phase::Paused => {
+        SessionState::Paused => {
             big(ui, "Paused: please wait for the experimenter.");
             return;
         }
-        Phase::Running => {}
+        SessionState::Running => {}
     }
     if view.prompt.is_some() {
         big(
@@ -91,7 +91,7 @@ pub(crate) fn show(
                 commands,
             );
         }
-        Some(Screen::Fitts {
+        Some(Screen::Targets {
             lit_m,
             other_m,
             width_m,

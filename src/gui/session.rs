@@ -6,7 +6,7 @@
 use eframe::egui::{self, Color32, RichText};
 
 use super::{Command, plot};
-use crate::session::{LiveSession, Phase};
+use crate::session::{LiveSession, SessionState};
 
 /// What the session panel keeps between frames.
 #[derive(Debug, Default)]
@@ -47,7 +47,7 @@ impl SessionPanel {
     pub(super) fn ui(&mut self, ui: &mut egui::Ui, live: &LiveSession) -> Vec<Command> {
         let mut commands = Vec::new();
         let p = live.progress();
-        let phase = live.phase();
+        let state = live.state();
         let remaining = p
             .remaining_s
             .map_or("unknown until a trial ends".into(), |s| {
@@ -56,11 +56,11 @@ impl SessionPanel {
         ui.heading(format!(
             "Session {}: {}",
             live.session(),
-            match phase {
-                Phase::Running => "running",
-                Phase::Paused => "paused",
-                Phase::Finished => "finished",
-                Phase::Aborted => "aborted (it can be resumed)",
+            match state {
+                SessionState::Running => "running",
+                SessionState::Paused => "paused",
+                SessionState::Finished => "finished",
+                SessionState::Aborted => "aborted (it can be resumed)",
             }
         ));
         ui.label(format!(
@@ -68,14 +68,14 @@ impl SessionPanel {
             p.trial, p.total, p.block, p.elapsed_s
         ));
         #[expect(clippy::cast_possible_truncation, reason = "a progress fraction")]
-        let fraction = if phase == Phase::Finished {
+        let fraction = if state == SessionState::Finished {
             1.0
         } else {
             (p.trial.saturating_sub(1) as f64 / p.total.max(1) as f64) as f32
         };
         ui.add(egui::ProgressBar::new(fraction).show_percentage());
-        ui.horizontal(|ui| match phase {
-            Phase::Running => {
+        ui.horizontal(|ui| match state {
+            SessionState::Running => {
                 if ui.button("Pause").clicked() {
                     commands.push(Command::Pause);
                 }
@@ -83,7 +83,7 @@ impl SessionPanel {
                     commands.push(Command::Abort);
                 }
             }
-            Phase::Paused => {
+            SessionState::Paused => {
                 if ui.button("Resume").clicked() {
                     commands.push(Command::Resume);
                 }
@@ -91,7 +91,7 @@ impl SessionPanel {
                     commands.push(Command::Abort);
                 }
             }
-            Phase::Finished | Phase::Aborted => {
+            SessionState::Finished | SessionState::Aborted => {
                 ui.label(format!("Data: {}", live.csv().display()));
                 if ui.button("Close session").clicked() {
                     commands.push(Command::Close);

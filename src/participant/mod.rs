@@ -458,7 +458,7 @@ impl SimParticipant {
                     reset_to: Some(SLIDE_START_M),
                 }
             }
-            Action::Show(Screen::Fitts {
+            Action::Show(Screen::Targets {
                 lit_m,
                 other_m,
                 effective_width_m,
@@ -500,7 +500,7 @@ impl SimParticipant {
         (now - self.trial_start).secs()
     }
 
-    /// A Fitts screen: `w_eff` is the width that counts for a hit.
+    /// A targets screen (a Fitts test): `w_eff` is the width that counts for a hit.
     fn fitts_screen<K: Kinds>(
         &mut self,
         now: Time,

@@ -7,7 +7,7 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use super::{Feed, Phase, Responder, Run, Session, SessionError, SessionRequest};
+use super::{Feed, Responder, Run, Session, SessionError, SessionRequest, SessionState};
 use crate::interrupt::{Interrupt, Signal};
 use crate::kinds::{Header, Protocol, ReadLog};
 use crate::participant::SimParticipant;
@@ -168,7 +168,7 @@ fn drive<R: Responder>(
     // handled just after its timestamp.
     let on_lsl = pace.is_some_and(|pace| run.pace_on_lsl(pace));
     let (mut ticks, mut seen) = (0_u64, 0);
-    while run.phase() != Phase::Finished {
+    while run.state() != SessionState::Finished {
         if on_lsl {
             run.hold();
         }
@@ -245,7 +245,7 @@ pub fn run_device<R: Responder>(
             return Ok(session.outcome().interrupted_by(signal));
         }
         report(&session, &mut seen, progress);
-        if session.phase() == Phase::Finished {
+        if session.state() == SessionState::Finished {
             return Ok(session.outcome());
         }
         if !session.is_open() && wall.elapsed().as_secs_f64() > timeout_s {

@@ -112,7 +112,7 @@ pub use responder::{
 };
 pub use run::{LiveSession, Run};
 pub use stream::{RowMarks, StreamRecorder};
-pub use view::{Phase, Progress, TRACE_EVERY_S, TRACE_LENGTH_S, TracePoint, View};
+pub use view::{Progress, SessionState, TRACE_EVERY_S, TRACE_LENGTH_S, TracePoint, View};
 
 use crate::device::DeviceSample;
 use crate::device::LinkState;
@@ -248,7 +248,7 @@ pub struct Session<R: Responder> {
     /// The engine's [`Engine::poll_timeout`], kept after each call that
     /// can change it (`handle`, `handle_timeout`) so ticks need not ask.
     engine_deadline: Option<Time>,
-    phase: Phase,
+    state: SessionState,
     view: View,
     trace: Option<Trace>,
     lost_since: Option<Time>,
@@ -442,7 +442,7 @@ impl<R: Responder> Session<R> {
             pending: VecDeque::from([Pending::Input(Input::Start)]),
             timeout_queued: false,
             engine_deadline: None,
-            phase: Phase::Running,
+            state: SessionState::Running,
             view: View::default(),
             trace: None,
             lost_since: None,
@@ -525,7 +525,7 @@ impl<R: Responder> Session<R> {
     #[must_use]
     pub fn poll_timeout(&self) -> Option<Time> {
         match &self.device {
-            Device::Sim { dt, .. } if self.phase == Phase::Running => Some(self.t + *dt),
+            Device::Sim { dt, .. } if self.state == SessionState::Running => Some(self.t + *dt),
             _ => self.engine_deadline,
         }
     }
@@ -654,7 +654,7 @@ impl<R: Responder> Session<R> {
 
     fn step(&mut self) -> Result<(), ResultsError> {
         self.settle()?;
-        if self.phase == Phase::Running {
+        if self.state == SessionState::Running {
             self.tick_sim();
         }
         Ok(())
@@ -760,7 +760,7 @@ impl<R: Responder> Session<R> {
             if let Some(drive) = self.responder.drive(self.t, &self.sample) {
                 port.drive_hand(tick.now_s, &drive);
             }
-            if pressed && self.phase == Phase::Running {
+            if pressed && self.state == SessionState::Running {
                 self.queue(Input::Click { x_m: tick.x_m });
             }
             self.observe();
@@ -776,11 +776,11 @@ impl<R: Responder> Session<R> {
             .last_frame_s
             .map_or(0.0, |w| (wall_s - w).clamp(0.0, MAX_FRAME_STEP_S));
         self.last_frame_s = Some(wall_s);
-        if !matches!(self.phase, Phase::Running | Phase::Paused) {
+        if !matches!(self.state, SessionState::Running | SessionState::Paused) {
             return Ok(());
         }
         let most = Time::from_secs_saturating(MAX_FRAME_STEP_S);
-        if self.phase == Phase::Running {
+        if self.state == SessionState::Running {
             self.owed = (self.owed + Time::from_secs_saturating(step)).min(most);
         }
         if self.device.is_sim() {
@@ -790,13 +790,15 @@ impl<R: Responder> Session<R> {
         loop {
             self.settle()?;
             match &self.device {
-                Device::Sim { dt, .. } if self.phase == Phase::Running && *dt <= self.owed => {
+                Device::Sim { dt, .. }
+                    if self.state == SessionState::Running && *dt <= self.owed =>
+                {
                     self.owed = self.owed - *dt;
                     self.tick_sim();
                 }
                 Device::Port(_) => return self.poll_device(),
                 _ => {
-                    if self.phase != Phase::Running {
+                    if self.state != SessionState::Running {
                         // Paused: the frame's time is not owed later.
                         self.owed = Time::ZERO;
                     }
@@ -905,7 +907,7 @@ impl<R: Responder> Session<R> {
             let Some(front) = self.pending.front() else {
                 return Ok(());
             };
-            let flows = self.phase == Phase::Running && self.device.connected();
+            let flows = self.state == SessionState::Running && self.device.connected();
             let next = match front {
                 Pending::Input(Input::Abort { .. }) => self.pending.pop_front(),
                 Pending::Input(Input::Recorded) if self.catching_up => None,
@@ -985,7 +987,7 @@ impl<R: Responder> Session<R> {
                     completed,
                     aborted,
                 });
-                self.phase = Phase::Finished;
+                self.state = SessionState::Finished;
                 return self.end_with(Closing::End);
             }
             Action::Show(_) | Action::Ask(_) | Action::Refused(_) | Action::Prompt(_) => {}
@@ -1019,7 +1021,7 @@ impl<R: Responder> Session<R> {
     }
 
     fn input(&mut self, input: Input) -> Result<(), ResultsError> {
-        if self.phase != Phase::Running {
+        if self.state != SessionState::Running {
             return Ok(());
         }
         self.queue(input);
@@ -1027,20 +1029,20 @@ impl<R: Responder> Session<R> {
     }
 
     fn pause(&mut self) -> Result<(), ResultsError> {
-        if self.phase != Phase::Running {
+        if self.state != SessionState::Running {
             return Ok(());
         }
-        self.phase = Phase::Paused;
+        self.state = SessionState::Paused;
         let t = self.t;
         self.emit(|| Event::Paused { t });
         self.interrupt("paused by the experimenter")
     }
 
     fn resume(&mut self) -> Result<(), ResultsError> {
-        if self.phase != Phase::Paused {
+        if self.state != SessionState::Paused {
             return Ok(());
         }
-        self.phase = Phase::Running;
+        self.state = SessionState::Running;
         let t = self.t;
         self.emit(|| Event::Resumed { t });
         self.settle()
@@ -1051,12 +1053,12 @@ impl<R: Responder> Session<R> {
     /// (and re-queued, so a resume presents it again), the device stops,
     /// and the log stays open-ended for a resume.
     fn stop_run(&mut self, reason: &str, line: Option<LogLine>) -> Result<(), ResultsError> {
-        if !matches!(self.phase, Phase::Running | Phase::Paused) {
+        if !matches!(self.state, SessionState::Running | SessionState::Paused) {
             return Ok(());
         }
         // Hold the engine where it is: the aborted trial's `Recorded` is
         // not delivered, so no next trial starts.
-        self.phase = Phase::Paused;
+        self.state = SessionState::Paused;
         self.interrupt(reason)?;
         self.stop_device()?;
         let signal = match &line {
@@ -1065,7 +1067,7 @@ impl<R: Responder> Session<R> {
         };
         let (t, reason) = (self.t, reason.to_owned());
         self.emit(|| Event::Stopped { t, reason, signal });
-        self.phase = Phase::Aborted;
+        self.state = SessionState::Aborted;
         self.view = View::default();
         self.end_with(Closing::Stop(line.map(Box::new)))
     }

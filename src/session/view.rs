@@ -1,5 +1,5 @@
 //! What a session shows: the participant's screen as the engine's actions
-//! left it, the phase, progress, and the live trace of the device.
+//! left it, the session's state, progress, and the live trace of the device.
 
 use std::collections::VecDeque;
 
@@ -59,7 +59,7 @@ impl View {
 
 /// Where the session stands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Phase {
+pub enum SessionState {
     /// Running.
     Running,
     /// Paused by the experimenter.
@@ -75,7 +75,7 @@ pub enum Phase {
 pub struct Progress {
     /// Current (or next) trial, 1-based, at most `total`.
     pub trial: usize,
-    /// PlannedSession trials.
+    /// Trials planned.
     pub total: usize,
     /// Block of the current trial.
     pub block: String,
@@ -145,8 +145,8 @@ impl<R: Responder> Session<R> {
 
     /// Where the session stands.
     #[must_use]
-    pub fn phase(&self) -> Phase {
-        self.phase
+    pub fn state(&self) -> SessionState {
+        self.state
     }
 
     /// Whether the log is open (on a port: the device has answered); a
@@ -276,7 +276,7 @@ impl<R: Responder> Session<R> {
                 .map(|t| t.block.clone())
                 .unwrap_or_default(),
             elapsed_s: self.t.secs(),
-            remaining_s: if self.phase == Phase::Finished {
+            remaining_s: if self.state == SessionState::Finished {
                 Some(0.0)
             } else {
                 remaining_s

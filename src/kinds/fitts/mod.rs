@@ -522,7 +522,7 @@ impl Tapping {
     }
 
     fn screen<K: Kinds>(&self, missed: bool) -> Action<K> {
-        Action::Show(Screen::Fitts {
+        Action::Show(Screen::Targets {
             lit_m: self.centres[self.lit],
             other_m: self.centres[1 - self.lit],
             width_m: self.trial.width_m,

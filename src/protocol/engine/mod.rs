@@ -122,8 +122,9 @@ pub enum Screen {
         /// comparison's nearness to the real surface.
         forced: Option<String>,
     },
-    /// Fitts: the lit target and the other one.
-    Fitts {
+    /// Two targets to tap in turn (a Fitts test): the lit one and the
+    /// other.
+    Targets {
         /// Centre of the lit target, m.
         lit_m: f64,
         /// Centre of the other target, m.
