@@ -102,6 +102,31 @@ pub struct Walk {
     errors: Vec<Problem>,
 }
 
+/// Reads the object `v` at `path` into the struct `T`, each field named
+/// once: its key is the field's name, and after it the [`Walk`] method
+/// that reads it, with that method's last arguments if it has any
+/// (`required`, `model_field`, `optional(default)`, `list(read_each)`).
+/// Keys that are no field (and not among the `[...]` also allowed, such as
+/// a design's `kind`) are refused; every problem is recorded at its JSON
+/// path, and the fields are read in the order listed.
+///
+/// ```ignore
+/// read_object!(w, v, path, ["kind"], PairedDesign {
+///     reference_s: required,
+///     conditions: list(Walk::condition),
+/// })
+/// ```
+macro_rules! read_object {
+    ($w:ident, $v:expr, $path:expr, [$($also:literal),* $(,)?], $T:ident {
+        $($field:ident: $how:ident $(($($arg:expr),* $(,)?))?),+ $(,)?
+    }) => {{
+        let m = $w.object($v, $path, &[$($also,)* $(stringify!($field)),+])?;
+        $(let $field = $w.$how(m, stringify!($field), $path $($(, $arg)*)?);)+
+        Some($T { $($field: $field?),+ })
+    }};
+}
+pub(crate) use read_object;
+
 /// `path.key` (just `key` at the root `$`).
 #[must_use]
 pub fn join(path: &str, key: &str) -> String {
@@ -275,13 +300,31 @@ impl Walk {
 
     /// A named rendering `{id, model}`.
     pub fn condition(&mut self, v: &Value, path: &str) -> Option<Condition> {
-        let m = self.object(v, path, &["id", "model"])?;
-        let id = self.required::<String>(m, "id", path);
-        let model = self.model_field(m, "model", path);
-        Some(Condition {
-            id: id?,
-            model: model?,
-        })
+        let w = self;
+        read_object!(
+            w,
+            v,
+            path,
+            [],
+            Condition {
+                id: required,
+                model: model_field,
+            }
+        )
+    }
+
+    /// The optional model object under `key`: `Some(None)` when absent,
+    /// `None` when present but invalid.
+    pub fn optional_model(
+        &mut self,
+        m: &Map<String, Value>,
+        key: &str,
+        path: &str,
+    ) -> Option<Option<ModelParams>> {
+        match m.get(key) {
+            Some(v) => self.model(v, &join(path, key)).map(Some),
+            None => Some(None),
+        }
     }
 
     /// The required model object under `key`.

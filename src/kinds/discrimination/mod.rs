@@ -47,7 +47,7 @@ use crate::kinds::paired::{Compare, Paired, PairedData, PairedTrial};
 use crate::protocol::check::{ValueChecks, MAX_TRIALS};
 use crate::protocol::engine::{Action, Choice, Input, Status, TrialRecord, TrialSource};
 use crate::protocol::kind::{TrackAnswers, Holds, Kinds, LiveTrial, Next, Quality, StudyKind};
-use crate::protocol::load::Walk;
+use crate::protocol::load::{Walk, read_object};
 use crate::protocol::plan::PlannedTrial;
 use crate::protocol::{Condition, Protocol};
 use crate::time::Time;
@@ -462,44 +462,18 @@ impl StudyKind for Discrimination {
     ];
 
     fn read(w: &mut Walk, v: &Value, path: &str) -> Option<DiscriminationDesign> {
-        let keys = [
-            "kind",
-            "reasons",
-            "reference",
-            "parameter",
-            "levels",
-            "comparison",
-            "question",
-            "judged",
-            "exploration_s",
-            "criterion",
-            "method",
-            "fit",
-        ];
-        let m = w.object(v, path, &keys)?;
-        let reasons = w.optional(m, "reasons", path, None);
-        let reference = w.model_field(m, "reference", path);
-        let parameter = w.required(m, "parameter", path);
-        let levels = w.required(m, "levels", path);
-        let comparison = w.required(m, "comparison", path);
-        let question = w.required(m, "question", path);
-        let judged = w.optional(m, "judged", path, Quality::Friction);
-        let exploration_s = w.required(m, "exploration_s", path);
-        let criterion = w.required(m, "criterion", path);
-        let method = w.required(m, "method", path);
-        let fit = w.required(m, "fit", path);
-        Some(DiscriminationDesign {
-            reasons: reasons?,
-            reference: reference?,
-            parameter: parameter?,
-            levels: levels?,
-            comparison: comparison?,
-            question: question?,
-            judged: judged?,
-            exploration_s: exploration_s?,
-            criterion: criterion?,
-            method: method?,
-            fit: fit?,
+        read_object!(w, v, path, ["kind"], DiscriminationDesign {
+            reasons: optional(None),
+            reference: model_field,
+            parameter: required,
+            levels: required,
+            comparison: required,
+            question: required,
+            judged: optional(Quality::Friction),
+            exploration_s: required,
+            criterion: required,
+            method: required,
+            fit: required,
         })
     }
 

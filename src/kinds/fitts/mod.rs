@@ -23,7 +23,7 @@ use crate::friction::ModelParams;
 use crate::protocol::check::ValueChecks;
 use crate::protocol::engine::{Action, Input, Screen};
 use crate::protocol::kind::{Block, Holds, Kinds, LiveTrial, Next, StudyKind};
-use crate::protocol::load::{Walk, join};
+use crate::protocol::load::{Walk, read_object};
 use crate::time::Time;
 
 pub mod analysis;
@@ -251,53 +251,24 @@ impl StudyKind for Fitts {
     ];
 
     fn read(w: &mut Walk, v: &Value, path: &str) -> Option<FittsDesign> {
-        let keys = [
-            "kind",
-            "cursor_m",
-            "taps",
-            "id_formula",
-            "tolerance",
-            "timeout_s",
-            "conditions",
-            "levels",
-            "practice",
-            "practice_levels",
-        ];
-        let m = w.object(v, path, &keys)?;
-        let cursor_m = w.required(m, "cursor_m", path);
-        let taps = w.required(m, "taps", path);
-        let id_formula = w.optional(m, "id_formula", path, IdFormula::default());
-        let tolerance = w.optional(m, "tolerance", path, Tolerance::default());
-        let timeout_s = w.optional(m, "timeout_s", path, fitts_timeout());
-        let conditions = w.list(m, "conditions", path, |w, v, p| {
-            let m = w.object(v, p, &["id", "model", "prompt", "physical"])?;
-            let id = w.required::<String>(m, "id", p);
-            let model = w.model_field(m, "model", p);
-            let prompt = w.optional::<Option<String>>(m, "prompt", p, None);
-            let physical = match m.get("physical") {
-                Some(v) => w.model(v, &join(p, "physical")).map(Some),
-                None => Some(None),
-            };
-            Some(FittsCondition {
-                id: id?,
-                model: model?,
-                prompt: prompt?,
-                physical: physical?,
+        let condition = |w: &mut Walk, v: &Value, p: &str| {
+            read_object!(w, v, p, [], FittsCondition {
+                id: required,
+                model: model_field,
+                prompt: optional(None),
+                physical: optional_model,
             })
-        });
-        let levels = w.list(m, "levels", path, Walk::value::<FittsLevel>);
-        let practice = w.optional(m, "practice", path, Vec::<String>::new());
-        let practice_levels = w.optional(m, "practice_levels", path, Vec::<usize>::new());
-        Some(FittsDesign {
-            cursor_m: cursor_m?,
-            taps: taps?,
-            id_formula: id_formula?,
-            tolerance: tolerance?,
-            timeout_s: timeout_s?,
-            conditions: conditions?,
-            levels: levels?,
-            practice: practice?,
-            practice_levels: practice_levels?,
+        };
+        read_object!(w, v, path, ["kind"], FittsDesign {
+            cursor_m: required,
+            taps: required,
+            id_formula: optional(IdFormula::default()),
+            tolerance: optional(Tolerance::default()),
+            timeout_s: optional(fitts_timeout()),
+            conditions: list(condition),
+            levels: list(Walk::value::<FittsLevel>),
+            practice: optional(Vec::new()),
+            practice_levels: optional(Vec::new()),
         })
     }
 

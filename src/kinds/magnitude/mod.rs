@@ -26,7 +26,7 @@ use crate::protocol::engine::{Action, Answer, Input, Question, Screen};
 use crate::protocol::kind::{
     Block, Exploration, Holds, Kinds, LiveTrial, Next, Quality, StudyKind,
 };
-use crate::protocol::load::Walk;
+use crate::protocol::load::{Walk, read_object};
 use crate::time::Time;
 
 pub mod analysis;
@@ -253,21 +253,16 @@ impl StudyKind for Magnitude {
             None => Some(None),
             Some(v) => {
                 let p = crate::protocol::load::join(path, "scaling");
-                w.object(v, &p, &["display", "reference", "parameter", "levels", "judged"])
-                    .and_then(|s| {
-                        let display = w.required::<String>(s, "display", &p);
-                        let reference = w.model_field(s, "reference", &p);
-                        let parameter = w.required::<String>(s, "parameter", &p);
-                        let levels = w.required::<Vec<f64>>(s, "levels", &p);
-                        let judged = w.optional(s, "judged", &p, Quality::Friction);
-                        Some(Some(Scaling {
-                            display: display?,
-                            reference: reference?,
-                            parameter: parameter?,
-                            levels: levels?,
-                            judged: judged?,
-                        }))
+                let mut scaling = || {
+                    read_object!(w, v, &p, [], Scaling {
+                        display: required,
+                        reference: model_field,
+                        parameter: required,
+                        levels: required,
+                        judged: optional(Quality::Friction),
                     })
+                };
+                scaling().map(Some)
             }
         };
         if m.contains_key("scaling") == m.contains_key("sets") {
@@ -285,14 +280,10 @@ impl StudyKind for Magnitude {
             });
         }
         let sets = w.list(m, "sets", path, |w, v, p| {
-            let m = w.object(v, p, &["display", "model", "stimuli"])?;
-            let display = w.required::<String>(m, "display", p);
-            let model = w.model_field(m, "model", p);
-            let stimuli = w.list(m, "stimuli", p, Walk::value::<Stimulus>);
-            Some(MagnitudeSet {
-                display: display?,
-                model: model?,
-                stimuli: stimuli?,
+            read_object!(w, v, p, [], MagnitudeSet {
+                display: required,
+                model: model_field,
+                stimuli: list(Walk::value::<Stimulus>),
             })
         });
         Some(MagnitudeDesign {

@@ -19,7 +19,7 @@ use crate::protocol::Condition;
 use crate::protocol::check::ValueChecks;
 use crate::protocol::engine::{Action, Answer, Choice, Input, Question, Screen};
 use crate::protocol::kind::{Block, Exploration, Holds, Kinds, LiveTrial, Next, StudyKind};
-use crate::protocol::load::Walk;
+use crate::protocol::load::{Walk, read_object};
 use crate::time::Time;
 
 pub mod analysis;
@@ -81,26 +81,12 @@ impl StudyKind for Paired {
     const COLUMNS: &'static [&'static str] = &["first", "second", "choice", "chosen"];
 
     fn read(w: &mut Walk, v: &Value, path: &str) -> Option<PairedDesign> {
-        let keys = [
-            "kind",
-            "reference_s",
-            "reference_instructions",
-            "exploration_s",
-            "conditions",
-            "pairs",
-        ];
-        let m = w.object(v, path, &keys)?;
-        let reference_s = w.required(m, "reference_s", path);
-        let reference_instructions = w.required(m, "reference_instructions", path);
-        let exploration_s = w.required(m, "exploration_s", path);
-        let conditions = w.list(m, "conditions", path, Walk::condition);
-        let pairs = w.list(m, "pairs", path, Walk::value::<[String; 2]>);
-        Some(PairedDesign {
-            reference_s: reference_s?,
-            reference_instructions: reference_instructions?,
-            exploration_s: exploration_s?,
-            conditions: conditions?,
-            pairs: pairs?,
+        read_object!(w, v, path, ["kind"], PairedDesign {
+            reference_s: required,
+            reference_instructions: required,
+            exploration_s: required,
+            conditions: list(Walk::condition),
+            pairs: list(Walk::value::<[String; 2]>),
         })
     }
 

@@ -31,7 +31,7 @@ pub mod view;
 use crate::protocol::check::{ValueChecks, MAX_TRIALS};
 use crate::protocol::engine::{Action, Input, Status, TrialRecord, TrialSource};
 use crate::protocol::kind::{Holds, Kinds, LiveTrial, Next, StudyKind, TrackAnswers};
-use crate::protocol::load::Walk;
+use crate::protocol::load::{Walk, read_object};
 use crate::protocol::plan::PlannedTrial;
 use crate::protocol::{Condition, Protocol};
 use crate::time::Time;
@@ -108,29 +108,13 @@ impl StudyKind for Staircase {
     const COLUMNS: &'static [&'static str] = &["delta_mu_s", "first", "second", "choice", "chosen"];
 
     fn read(w: &mut Walk, v: &Value, path: &str) -> Option<StaircaseDesign> {
-        let keys = [
-            "kind",
-            "reference",
-            "start_delta",
-            "step",
-            "reversals",
-            "exploration_s",
-            "max_trials",
-        ];
-        let m = w.object(v, path, &keys)?;
-        let reference = w.model_field(m, "reference", path);
-        let start_delta = w.required(m, "start_delta", path);
-        let step = w.required(m, "step", path);
-        let reversals = w.required(m, "reversals", path);
-        let exploration_s = w.required(m, "exploration_s", path);
-        let max_trials = w.optional(m, "max_trials", path, None);
-        Some(StaircaseDesign {
-            reference: reference?,
-            start_delta: start_delta?,
-            step: step?,
-            reversals: reversals?,
-            exploration_s: exploration_s?,
-            max_trials: max_trials?,
+        read_object!(w, v, path, ["kind"], StaircaseDesign {
+            reference: model_field,
+            start_delta: required,
+            step: required,
+            reversals: required,
+            exploration_s: required,
+            max_trials: optional(None),
         })
     }
 
