@@ -505,17 +505,17 @@ pub fn main() -> ExitCode {
             Some(path) => {
                 haply2diy_emulator_command(Path::new(path), lockstep, transcript.as_deref())
             }
-            None if lockstep || transcript.is_some() => Err(Failure::from(vec![if lockstep {
-                UserError::new(
-                    "--lockstep",
-                    "only for an emulated haply2diy:PATH or inverse3".to_owned(),
-                )
-            } else {
-                UserError::new(
-                    "--transcript",
-                    "only for an emulated haply2diy:PATH".to_owned(),
-                )
-            }])),
+            None if lockstep || transcript.is_some() => {
+                let (flag, only) = if lockstep {
+                    ("--lockstep", "haply2diy:PATH or inverse3")
+                } else {
+                    ("--transcript", "haply2diy:PATH")
+                };
+                Err(Failure::from(vec![UserError::new(
+                    flag,
+                    format!("only for an emulated {only}"),
+                )]))
+            }
             None => emulator_command(Path::new(&path), on_board, link_delay_ms),
         },
         Command::FirmwareQemu { elf, link } => firmware_qemu_command(&elf, link.as_deref()),

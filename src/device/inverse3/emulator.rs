@@ -50,11 +50,9 @@ pub const TRACK_RANGE_M: f64 = 0.1;
 pub const COMMAND_LASTS_S: f64 = 0.05;
 /// Physics step, s.
 pub const STEP_S: f64 = 0.0005;
-/// Physics steps per client message in lockstep ([`Options::lockstep`]).
+/// Physics steps per client message in lockstep ([`Options::lockstep`]):
+/// 1 ms, one period of the host's loop ([`super::RATE_HZ`]).
 const LOCKSTEP_STEPS: u32 = 2;
-/// The time a client message advances the physics in lockstep, s: one
-/// period of the host's loop ([`super::RATE_HZ`]).
-pub const LOCKSTEP_S: f64 = STEP_S * LOCKSTEP_STEPS as f64;
 /// The service version the emulator states.
 pub const VERSION: &str = "3.5.0";
 /// The emulated device's id.
@@ -110,7 +108,7 @@ impl Plant {
         }
     }
 
-    /// Advances one host period, [`LOCKSTEP_S`] ([`Options::lockstep`]).
+    /// Advances one host period ([`Options::lockstep`]).
     pub fn advance_lockstep(&mut self) {
         for _ in 0..LOCKSTEP_STEPS {
             self.step(STEP_S);
@@ -226,7 +224,7 @@ pub struct Options {
     pub version: String,
     /// Whether it lists an Inverse3 (false: an inventory with none).
     pub with_device: bool,
-    /// Advances the physics one host period ([`LOCKSTEP_S`]) per client
+    /// Advances the physics one host period (1 ms) per client
     /// message instead of in real time: a host the machine stalls stalls
     /// the device with it, so what a client reads follows from what it
     /// sent, whatever the load.
