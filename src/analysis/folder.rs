@@ -185,15 +185,14 @@ fn group<K: Kinds>(
                 .filter(|c| chunks.iter().all(|(_, ch)| ch.done.has(c))),
         );
         let (mut done, mut other) = (Frame::new(&columns), Frame::new(&columns));
-        for (i, (_, chunk)) in chunks.iter().enumerate() {
-            done.append(&chunk.done, i);
-            other.append(&chunk.other, i);
+        let mut paths = Vec::new();
+        for (i, (path, chunk)) in chunks.into_iter().enumerate() {
+            done.append(chunk.done, i);
+            other.append(chunk.other, i);
+            if placed {
+                paths.push(path.clone());
+            }
         }
-        let paths = if placed {
-            chunks.into_iter().map(|(p, _)| p.clone()).collect()
-        } else {
-            Vec::new()
-        };
         out.insert(kind, Rows::new(done, other, paths));
     }
     Ok(out)

@@ -5,6 +5,7 @@
 
 use std::collections::HashMap;
 use std::path::PathBuf;
+use std::sync::Arc;
 
 use crate::problem::Problem;
 use crate::results::reader::records;
@@ -20,13 +21,6 @@ impl Column {
     fn push(&mut self, cell: &str) {
         self.text.push_str(cell);
         self.ends.push(self.text.len());
-    }
-
-    /// Adds the cells of `other` after its own.
-    fn extend(&mut self, other: &Column) {
-        let base = self.text.len();
-        self.text.push_str(&other.text);
-        self.ends.extend(other.ends.iter().map(|e| e + base));
     }
 
     fn get(&self, i: usize) -> Option<&str> {
@@ -45,14 +39,47 @@ impl Column {
     }
 }
 
+/// Rows of one piece (in a folder's data, one file's), every column in
+/// the order of its frame's names, each row with where it came from.
+#[derive(Debug, Clone, Default)]
+struct Part {
+    columns: Vec<Column>,
+    origin: Vec<(u32, u32)>,
+}
+
 /// Rows of text cells by column name, each row with where it came from:
 /// its file (an index into [`Rows`]' files) and its record in that file
-/// (the column names are record 0).
+/// (the column names are record 0). The rows are kept in parts as they
+/// were read (a file's rows one part): a folder's million rows are put
+/// together without a copy.
 #[derive(Debug, Clone, Default)]
 pub(super) struct Frame {
     names: Vec<&'static str>,
-    columns: Vec<Column>,
-    origin: Vec<(u32, u32)>,
+    parts: Vec<Part>,
+    /// The row each part starts at, then the number of rows.
+    starts: Vec<usize>,
+}
+
+/// One column of a frame, across its parts.
+#[derive(Clone, Copy)]
+struct ColumnOf<'a> {
+    frame: &'a Frame,
+    index: usize,
+}
+
+impl<'a> ColumnOf<'a> {
+    fn get(self, row: usize) -> Option<&'a str> {
+        let (part, i) = self.frame.locate(row)?;
+        part.columns.get(self.index)?.get(i)
+    }
+
+    fn iter(self) -> impl Iterator<Item = &'a str> {
+        self.frame
+            .parts
+            .iter()
+            .filter_map(move |p| p.columns.get(self.index))
+            .flat_map(Column::iter)
+    }
 }
 
 impl Frame {
@@ -60,8 +87,8 @@ impl Frame {
     pub(super) fn new(names: &[&'static str]) -> Frame {
         Frame {
             names: names.to_vec(),
-            columns: vec![Column::default(); names.len()],
-            origin: Vec::new(),
+            parts: Vec::new(),
+            starts: vec![0],
         }
     }
 
@@ -73,26 +100,61 @@ impl Frame {
         file: usize,
         record: usize,
     ) {
-        for (column, cell) in self.columns.iter_mut().zip(cells) {
-            column.push(cell.as_ref());
-        }
-        self.origin.push((
+        let origin = (
             u32::try_from(file).unwrap_or(u32::MAX),
             u32::try_from(record).unwrap_or(u32::MAX),
-        ));
+        );
+        self.push_from(cells, origin);
+    }
+
+    /// Adds a row from `origin` (file, record).
+    fn push_from<S: AsRef<str>>(&mut self, cells: impl IntoIterator<Item = S>, origin: (u32, u32)) {
+        if self.parts.is_empty() {
+            self.parts.push(Part {
+                columns: vec![Column::default(); self.names.len()],
+                origin: Vec::new(),
+            });
+            self.starts.push(0);
+        }
+        let Some(part) = self.parts.last_mut() else {
+            return;
+        };
+        for (column, cell) in part.columns.iter_mut().zip(cells) {
+            column.push(cell.as_ref());
+        }
+        part.origin.push(origin);
+        if let Some(end) = self.starts.last_mut() {
+            *end += 1;
+        }
     }
 
     /// Adds the rows of `other` (which has every column of this frame),
-    /// as rows of file `file`.
-    pub(super) fn append(&mut self, other: &Frame, file: usize) {
-        for (name, column) in self.names.iter().zip(&mut self.columns) {
-            if let Some(from) = other.column(name) {
-                column.extend(from);
-            }
-        }
+    /// as rows of file `file`: its parts are moved, not copied.
+    pub(super) fn append(&mut self, other: Frame, file: usize) {
         let file = u32::try_from(file).unwrap_or(u32::MAX);
-        self.origin
-            .extend(other.origin.iter().map(|&(_, record)| (file, record)));
+        let at: Vec<Option<usize>> = self
+            .names
+            .iter()
+            .map(|n| other.names.iter().position(|o| o == n))
+            .collect();
+        for mut part in other.parts {
+            let rows = part.origin.len();
+            if rows == 0 {
+                continue;
+            }
+            let columns = at
+                .iter()
+                .map(|i| i.map_or_else(Column::default, |i| std::mem::take(&mut part.columns[i])))
+                .collect();
+            let origin = part
+                .origin
+                .iter()
+                .map(|&(_, record)| (file, record))
+                .collect();
+            self.parts.push(Part { columns, origin });
+            let end = self.height() + rows;
+            self.starts.push(end);
+        }
     }
 
     /// Its columns.
@@ -106,42 +168,64 @@ impl Frame {
     }
 
     fn height(&self) -> usize {
-        self.origin.len()
+        self.starts.last().copied().unwrap_or(0)
     }
 
-    fn column(&self, name: &str) -> Option<&Column> {
-        let i = self.names.iter().position(|n| *n == name)?;
-        self.columns.get(i)
+    /// The part that holds `row`, and the row's index in it.
+    fn locate(&self, row: usize) -> Option<(&Part, usize)> {
+        if row >= self.height() {
+            return None;
+        }
+        // The last part that starts at or before `row` (parts are never
+        // empty, so it holds the row).
+        let k = self.starts.partition_point(|&s| s <= row).checked_sub(1)?;
+        Some((self.parts.get(k)?, row - self.starts[k]))
+    }
+
+    /// Where row `row` came from.
+    fn origin(&self, row: usize) -> Option<(u32, u32)> {
+        let (part, i) = self.locate(row)?;
+        part.origin.get(i).copied()
+    }
+
+    fn column(&self, name: &str) -> Option<ColumnOf<'_>> {
+        let index = self.names.iter().position(|n| *n == name)?;
+        Some(ColumnOf { frame: self, index })
     }
 
     /// The rows where `keep` holds.
-    fn filter(&self, keep: &[bool]) -> Frame {
+    fn filter(self: &Arc<Frame>, keep: &[bool]) -> Arc<Frame> {
         // Every row, or none (a folder of one form): no row by row copy.
         if keep.iter().all(|k| *k) {
-            return self.clone();
+            return Arc::clone(self);
         }
         let mut out = Frame::new(&self.names);
         if !keep.contains(&true) {
-            return out;
+            return Arc::new(out);
         }
+        let columns: Vec<ColumnOf<'_>> = (0..self.names.len())
+            .map(|index| ColumnOf { frame: self, index })
+            .collect();
         for (row, _) in keep.iter().enumerate().filter(|(_, k)| **k) {
-            for (to, from) in out.columns.iter_mut().zip(&self.columns) {
-                to.push(from.get(row).unwrap_or(""));
-            }
-            out.origin.extend(self.origin.get(row));
+            out.push_from(
+                columns.iter().map(|c| c.get(row).unwrap_or("")),
+                self.origin(row).unwrap_or((u32::MAX, u32::MAX)),
+            );
         }
-        out
+        Arc::new(out)
     }
 }
 
 /// The data rows of one kind (completed, non-practice), and the files
-/// they came from (to place a bad value on the error path).
+/// they came from (to place a bad value on the error path). Its frames
+/// and files are shared: the rows picked from it are, when they are all of
+/// them, the same frame, not a copy of a million rows.
 #[derive(Debug, Clone, Default)]
 pub struct Rows {
-    frame: Frame,
+    frame: Arc<Frame>,
     /// The non-practice rows that did not complete (aborted, timed out).
-    aborted: Frame,
-    files: Vec<PathBuf>,
+    aborted: Arc<Frame>,
+    files: Arc<[PathBuf]>,
 }
 
 impl Rows {
@@ -149,9 +233,9 @@ impl Rows {
     /// made in memory, which no file places).
     pub(super) fn new(frame: Frame, aborted: Frame, files: Vec<PathBuf>) -> Rows {
         Rows {
-            frame,
-            aborted,
-            files,
+            frame: Arc::new(frame),
+            aborted: Arc::new(aborted),
+            files: files.into(),
         }
     }
 
@@ -173,9 +257,9 @@ impl Rows {
     #[must_use]
     pub fn aborted(&self) -> Rows {
         Rows {
-            frame: self.aborted.clone(),
-            aborted: Frame::default(),
-            files: self.files.clone(),
+            frame: Arc::clone(&self.aborted),
+            aborted: Arc::default(),
+            files: Arc::clone(&self.files),
         }
     }
 
@@ -183,7 +267,7 @@ impl Rows {
     /// (`!filled`); the rows that did not complete alike.
     #[must_use]
     pub fn where_filled(&self, column: &str, filled: bool) -> Rows {
-        let pick = |frame: &Frame| {
+        let pick = |frame: &Arc<Frame>| {
             let keep: Vec<bool> = match frame.column(column) {
                 Some(c) => c.iter().map(|t| t.trim().is_empty() != filled).collect(),
                 None => vec![!filled; frame.height()],
@@ -193,7 +277,7 @@ impl Rows {
         Rows {
             frame: pick(&self.frame),
             aborted: pick(&self.aborted),
-            files: self.files.clone(),
+            files: Arc::clone(&self.files),
         }
     }
 
@@ -230,16 +314,24 @@ impl Rows {
     pub fn codes(&self, column: &str) -> (Vec<u32>, Vec<String>) {
         let mut names: Vec<String> = Vec::new();
         let mut index: HashMap<&str, u32> = HashMap::new();
+        // The value of the row before and its code: a column such as the
+        // participant holds runs of one value.
+        let mut last: Option<(&str, u32)> = None;
         let codes = self
             .frame
             .column(column)
             .map(|c| {
                 c.iter()
-                    .map(|v| {
-                        *index.entry(v).or_insert_with(|| {
-                            names.push(v.to_owned());
-                            u32::try_from(names.len() - 1).unwrap_or(u32::MAX)
-                        })
+                    .map(|v| match last {
+                        Some((l, code)) if l == v => code,
+                        _ => {
+                            let code = *index.entry(v).or_insert_with(|| {
+                                names.push(v.to_owned());
+                                u32::try_from(names.len() - 1).unwrap_or(u32::MAX)
+                            });
+                            last = Some((v, code));
+                            code
+                        }
                     })
                     .collect()
             })
@@ -298,7 +390,7 @@ impl Rows {
     #[must_use]
     pub fn error(&self, column: &str, row: usize, message: &str) -> Problem {
         let message = format!("{column}: {message}");
-        let origin = self.frame.origin.get(row).copied();
+        let origin = self.frame.origin(row);
         let file = origin.and_then(|(f, _)| self.files.get(usize::try_from(f).ok()?));
         let Some(file) = file.or(self.files.first()) else {
             return Problem::new("", message);
@@ -335,6 +427,11 @@ mod tests {
         f
     }
 
+    /// Where each row came from.
+    fn origins(f: &Frame) -> Vec<(u32, u32)> {
+        (0..f.height()).filter_map(|r| f.origin(r)).collect()
+    }
+
     fn rows(frame: Frame) -> Rows {
         Rows::new(frame, Frame::default(), vec![PathBuf::from("a.csv")])
     }
@@ -350,7 +447,7 @@ mod tests {
         assert_eq!(trials(&mixed.where_filled("level", true)), ["1", "3"]);
         assert_eq!(trials(&mixed.where_filled("level", false)), ["0", "2"]);
         let filled = mixed.where_filled("level", true);
-        assert_eq!(filled.frame.origin, [(0, 2), (0, 4)]);
+        assert_eq!(origins(&filled.frame), [(0, 2), (0, 4)]);
         let all = rows(frame(&["1", "2"]));
         assert_eq!(trials(&all.where_filled("level", true)), ["0", "1"]);
         assert!(all.where_filled("level", false).is_empty());
@@ -363,8 +460,8 @@ mod tests {
     #[test]
     fn appended_frames_keep_every_cell_and_where_it_came_from() {
         let mut all = Frame::new(&["trial", "level"]);
-        all.append(&frame(&["a", "b"]), 0);
-        all.append(&frame(&["", "c", "d"]), 1);
+        all.append(frame(&["a", "b"]), 0);
+        all.append(frame(&["", "c", "d"]), 1);
         let r = rows(all);
         let cells: Vec<(&str, &str)> = (0..r.len())
             .map(|i| (r.text("trial", i), r.text("level", i)))
@@ -373,6 +470,12 @@ mod tests {
             cells,
             [("0", "a"), ("1", "b"), ("0", ""), ("1", "c"), ("2", "d")]
         );
-        assert_eq!(r.frame.origin, [(0, 1), (0, 2), (1, 1), (1, 2), (1, 3)]);
+        assert_eq!(origins(&r.frame), [(0, 1), (0, 2), (1, 1), (1, 2), (1, 3)]);
+        // Rows picked across the parts, each from its own file and record.
+        let filled = r.where_filled("level", true);
+        let picked: Vec<&str> = (0..filled.len()).map(|i| filled.text("level", i)).collect();
+        assert_eq!(picked, ["a", "b", "c", "d"]);
+        assert_eq!(origins(&filled.frame), [(0, 1), (0, 2), (1, 2), (1, 3)]);
+        assert_eq!(r.text("level", 5), "");
     }
 }
