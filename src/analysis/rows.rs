@@ -52,12 +52,18 @@ struct Part {
 /// (the column names are record 0). The rows are kept in parts as they
 /// were read (a file's rows one part): a folder's million rows are put
 /// together without a copy.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub(super) struct Frame {
     names: Vec<&'static str>,
     parts: Vec<Part>,
     /// The row each part starts at, then the number of rows.
     starts: Vec<usize>,
+}
+
+impl Default for Frame {
+    fn default() -> Frame {
+        Frame::new(&[])
+    }
 }
 
 /// One column of a frame, across its parts.
@@ -477,5 +483,9 @@ mod tests {
         assert_eq!(picked, ["a", "b", "c", "d"]);
         assert_eq!(origins(&filled.frame), [(0, 1), (0, 2), (1, 2), (1, 3)]);
         assert_eq!(r.text("level", 5), "");
+        // A frame made by default takes rows as one made by name.
+        let mut empty = Frame::default();
+        empty.push(Vec::<&str>::new(), 3, 7);
+        assert_eq!((empty.height(), empty.origin(0)), (1, Some((3, 7))));
     }
 }
