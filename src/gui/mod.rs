@@ -24,7 +24,7 @@
 mod builder;
 mod choose;
 mod frames;
-mod participant;
+pub(crate) mod participant;
 mod plot;
 mod results;
 mod session;
@@ -149,6 +149,8 @@ pub(crate) enum Command {
     Switch(usize),
     /// A Fitts click.
     Click,
+    /// An input a kind's own screen gave.
+    Input(Input),
     /// The pointer's position over the workspace, m.
     HandTarget(Option<f64>),
     /// Save the note typed in into the session log.
@@ -296,6 +298,7 @@ impl FrictionlabApp {
             }
             Command::Switch(i) => self.with_live(|l| l.feed(Feed::Input(Input::Switch(i)))),
             Command::Click => self.with_live(|l| l.feed(Feed::Click)),
+            Command::Input(input) => self.with_live(|l| l.feed(Feed::Input(input))),
             Command::HandTarget(x) => {
                 if let Some(l) = &mut self.live {
                     l.set_hand_target(x);

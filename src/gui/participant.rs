@@ -53,7 +53,17 @@ pub(crate) fn show(
         return;
     }
     let mut fitts = None;
+    // A kind's own screen, drawn by its kind's code.
+    let own = view
+        .own
+        .as_ref()
+        .zip(crate::kinds::screen_view(live.header().protocol.kind()));
     match &view.screen {
+        _ if let Some((own, draw)) = own => {
+            for input in draw(ui, own, now, view.question) {
+                commands.push(Command::Input(input));
+            }
+        }
         None => big(ui, "Please wait."),
         Some(Screen::Instructions(text)) => {
             big(ui, text);

@@ -1,4 +1,4 @@
-//! What the kinds' results views (`src/kinds/<kind>/view.rs`) share: how
+//! What the kinds' window code (`src/kinds/<kind>/view.rs`) shares: how
 //! they read their object of `summary.json` (every missing field a
 //! message naming its path, never a panic), how a statistic is written in
 //! a sentence (`r = 0.93, 95% CI [0.81, 0.97], p = 0.0003`), and the
@@ -12,10 +12,20 @@ use eframe::egui::{self, Color32, RichText};
 use egui_plot::{Corner, Legend, Line, Plot, PlotPoints, PlotUi};
 use serde_json::Value;
 
+use crate::protocol::engine::{Input, OwnScreen, Question};
+use crate::time::Time;
+
 /// A kind's view of its results in the window (its `VIEW` in
 /// `src/kinds/<kind>/view.rs`): its figures and key statistics, drawn
 /// from its object of `summary.json`.
 pub type ResultsView = fn(&mut egui::Ui, &Value);
+
+/// A kind's drawing of its own screens in the participant's window (its
+/// `SCREEN` in `src/kinds/<kind>/view.rs`; see
+/// [`crate::protocol::engine::OwnScreen`]): it draws `screen` (the kind
+/// gets its own value back with [`OwnScreen::get`]) at session time `now`,
+/// with `question` open if one is, and returns what the participant did.
+pub type ScreenView = fn(&mut egui::Ui, &OwnScreen, Time, Option<Question>) -> Vec<Input>;
 
 /// The report's chart colours (plotters' `Palette99`, its first ten), so a
 /// series has the same colour in the window and in `report.html`.

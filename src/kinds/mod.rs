@@ -19,7 +19,9 @@
 //!
 //! The simulated participant and the window answer what a trial shows and
 //! asks (`Screen`, `Question`), not the kind: a kind that reuses existing
-//! screens needs no participant or GUI code.
+//! screens needs no participant or GUI code. A kind with a look of its own
+//! shows its own screen (`OwnScreen`), which sets one of those tasks and is
+//! drawn by its `view.rs`'s `SCREEN`, reached through [`screen_view`].
 //!
 //! A kind's results view (`view.rs`: its figures and key statistics, drawn
 //! from its object of `summary.json`) is reached through
@@ -442,6 +444,17 @@ macro_rules! kinds {
         pub fn results_view(key: &str) -> Option<figures::ResultsView> {
             match key {
                 $($(#[cfg($cfg)])? $name => $module::view::VIEW,)*
+                _ => None,
+            }
+        }
+
+        /// How the kind named `kind` draws its own screens, from its
+        /// folder's `view.rs`; `None` for a kind without (it shows only
+        /// shared screens).
+        #[must_use]
+        pub fn screen_view(kind: &str) -> Option<figures::ScreenView> {
+            match kind {
+                $($(#[cfg($cfg)])? $name => $module::view::SCREEN,)*
                 _ => None,
             }
         }

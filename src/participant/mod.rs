@@ -413,6 +413,8 @@ impl SimParticipant {
             reset_to: None,
         };
         match action {
+            // A kind's own screen: its task, as any kind's.
+            Action::ShowOwn(own) => self.on_action(now, &Action::<K>::Show(own.task()), trial),
             Action::Show(Screen::Reference { .. }) => {
                 self.desk_memory();
                 idle

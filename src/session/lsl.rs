@@ -76,6 +76,43 @@ fn fields(event: &str) -> Map<String, Value> {
     m
 }
 
+/// The marker of a screen shown at `t` during trial `trial`, if it has
+/// one; `own`: the name of the kind's own screen whose task it is, which
+/// is marked as its task is, with its name (`screen`), or as `screen` if
+/// its task has no marker.
+fn screen_marker(
+    t: Time,
+    trial: Option<usize>,
+    screen: &Screen,
+    own: Option<&str>,
+) -> Option<Map<String, Value>> {
+    let (event, duration_s, active) = match screen {
+        Screen::Paired { active, .. } => ("interval", None, Some(*active)),
+        Screen::Break { until } => ("break", Some((*until - t).secs()), None),
+        Screen::Instructions(_) => ("instructions", None, None),
+        Screen::Reference { .. } => ("reference", None, None),
+        Screen::Explore { .. } | Screen::Targets { .. } => {
+            own?;
+            ("screen", None, None)
+        }
+    };
+    let mut m = fields(event);
+    // A trial's screens (an interval, a kind's own) name their trial.
+    if let Some(trial) = trial.filter(|_| active.is_some() || own.is_some()) {
+        m.insert("trial".into(), trial.into());
+    }
+    if let Some(active) = active {
+        m.insert("active".into(), active.into());
+    }
+    if let Some(d) = duration_s {
+        m.insert("duration_s".into(), d.into());
+    }
+    if let Some(name) = own {
+        m.insert("screen".into(), name.into());
+    }
+    Some(m)
+}
+
 /// A short JSON summary of a planned trial's conditions: its fields with
 /// every friction model (an object tagged `model`) given by its tag and
 /// every condition (an object with an `id`) by its id. Generic: the
@@ -508,15 +545,10 @@ impl Publishing {
                     });
                 }
             }
-            Action::Show(Screen::Paired { active, .. }) => self.mark(t, "interval", |m| {
-                with_trial(m);
-                m.insert("active".into(), (*active).into());
-            }),
-            Action::Show(Screen::Break { until }) => self.mark(t, "break", |m| {
-                m.insert("duration_s".into(), (*until - t).secs().into());
-            }),
-            Action::Show(Screen::Instructions(_)) => self.mark(t, "instructions", |_| {}),
-            Action::Show(Screen::Reference { .. }) => self.mark(t, "reference", |_| {}),
+            Action::Show(screen) => self.shown(t, trial, screen, None),
+            // A kind's own screen: marked as its task is, with its name
+            // (`screen`), and marked `screen` if its task has no marker.
+            Action::ShowOwn(own) => self.shown(t, trial, &own.task(), Some(own.name())),
             Action::Prompt(text) => self.mark(t, "prompt", |m| {
                 with_trial(m);
                 m.insert("text".into(), text.clone().into());
@@ -526,6 +558,15 @@ impl Publishing {
                 m.insert("why".into(), why.clone().into());
             }),
             _ => {}
+        }
+    }
+
+    /// A screen shown at `t` (`own`: the name of the kind's own screen
+    /// whose task it is): its marker, if it has one.
+    fn shown(&mut self, t: Time, trial: Option<usize>, screen: &Screen, own: Option<&str>) {
+        if let Some(m) = screen_marker(t, trial, screen, own) {
+            let at = self.clock().at(t);
+            self.publisher.marker(at, m);
         }
     }
 
@@ -556,5 +597,46 @@ impl Publishing {
                 pace,
             });
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use serde_json::json;
+
+    use super::*;
+
+    fn marker(screen: &Screen, own: Option<&str>) -> Option<Value> {
+        screen_marker(Time::from_whole_secs(2), Some(3), screen, own).map(Value::Object)
+    }
+
+    #[test]
+    fn a_kinds_own_screen_is_marked_as_its_task_with_its_name() {
+        let until = Time::from_whole_secs(5);
+        let pair = Screen::Paired {
+            active: 1,
+            until,
+            forced: None,
+        };
+        let explore = Screen::Explore { until };
+        // The shared screens, as they always were.
+        assert_eq!(
+            marker(&pair, None),
+            Some(json!({"event": "interval", "trial": 3, "active": 1}))
+        );
+        assert_eq!(
+            marker(&Screen::Break { until }, None),
+            Some(json!({"event": "break", "duration_s": 3.0}))
+        );
+        assert_eq!(marker(&explore, None), None);
+        // A kind's own: its task's marker with its name, or `screen`.
+        assert_eq!(
+            marker(&pair, Some("staircase_pair")),
+            Some(json!({"event": "interval", "trial": 3, "active": 1, "screen": "staircase_pair"}))
+        );
+        assert_eq!(
+            marker(&explore, Some("dial")),
+            Some(json!({"event": "screen", "trial": 3, "screen": "dial"}))
+        );
     }
 }

@@ -990,7 +990,11 @@ impl<R: Responder> Session<R> {
                 self.state = SessionState::Finished;
                 return self.end_with(Closing::End);
             }
-            Action::Show(_) | Action::Ask(_) | Action::Refused(_) | Action::Prompt(_) => {}
+            Action::Show(_)
+            | Action::ShowOwn(_)
+            | Action::Ask(_)
+            | Action::Refused(_)
+            | Action::Prompt(_) => {}
         }
         if self.events.is_some() && !matches!(action, Action::Physical(_) | Action::Record(_)) {
             let (t, trial) = (self.t, self.engine.trial().map(|p| p.index));

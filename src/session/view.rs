@@ -9,7 +9,7 @@ use super::device::count_f64;
 use super::{DeviceStatus, Log, Responder, Session, SessionOutcome};
 use crate::device::DeviceSample;
 use crate::kinds::{Action, Engine, ReadLog};
-use crate::protocol::engine::{Question, Screen};
+use crate::protocol::engine::{OwnScreen, Question, Screen};
 
 /// Interval of the live trace, s (200 Hz).
 pub const TRACE_EVERY_S: f64 = 0.005;
@@ -19,8 +19,11 @@ pub const TRACE_LENGTH_S: f64 = 10.0;
 /// What the participant's screen shows now, from the engine's actions.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct View {
-    /// The last screen shown.
+    /// The last screen shown (a kind's own screen's task).
     pub screen: Option<Screen>,
+    /// The kind's own screen, when the last screen shown is one: the
+    /// window draws it with the kind's code.
+    pub own: Option<OwnScreen>,
     /// The question open, if any.
     pub question: Option<Question>,
     /// Why the last answer was refused (cleared by the next screen).
@@ -33,7 +36,12 @@ impl View {
     /// Follows an action of the engine.
     pub(super) fn follow(&mut self, action: &Action) {
         match action {
+            Action::ShowOwn(own) => {
+                self.follow(&Action::Show(own.task()));
+                self.own = Some(own.clone());
+            }
             Action::Show(screen) => {
+                self.own = None;
                 self.screen = Some(screen.clone());
                 self.refused = None;
                 self.prompt = None;

@@ -11,7 +11,7 @@ use frictionlab_psychophysics::psychometric::{Params, Shape};
 use serde_json::Value;
 
 use super::report::{TRACKS_SHOWN, curve};
-use crate::kinds::figures::{self, Along, At, Missing, ResultsView, ci, fixed};
+use crate::kinds::figures::{self, Along, At, Missing, ResultsView, ci, fixed, ScreenView};
 use crate::protocol::form::unit;
 
 /// The unit of the parameter `design.parameter` names (a path such as
@@ -271,6 +271,9 @@ figures::figure(
 
 /// The kind's results view ([`show`]).
 pub const VIEW: Option<ResultsView> = Some(show);
+
+/// No screen of its own: its trials show the shared screens.
+pub const SCREEN: Option<ScreenView> = None;
 
 /// The view: the sentences, then the functions and the Weber fractions.
 pub fn show(ui: &mut egui::Ui, summary: &Value) {

@@ -8,7 +8,7 @@ use eframe::egui;
 use egui_plot::{Bar, BarChart, Corner, Line, PlotPoints};
 use serde_json::Value;
 
-use crate::kinds::figures::{self, At, Missing, ResultsView, fixed, p_value};
+use crate::kinds::figures::{self, At, Missing, ResultsView, fixed, p_value, ScreenView};
 
 /// The quadrants, as `summary.json` names them, and as the figure says
 /// them (ties, last, are counted in the sentences, not drawn).
@@ -235,6 +235,9 @@ figures::figure(
 
 /// The kind's results view ([`show`]).
 pub const VIEW: Option<ResultsView> = Some(show);
+
+/// No screen of its own: its trials show the shared screens.
+pub const SCREEN: Option<ScreenView> = None;
 
 /// The view: the sentences, then the regression and quadrant figures.
 pub fn show(ui: &mut egui::Ui, summary: &Value) {

@@ -11,7 +11,7 @@ use serde_json::Value;
 
 use super::analysis::GeoMean;
 use super::report::delta_mu_series;
-use crate::kinds::figures::{self, Along, At, Missing, ResultsView, both, ci, fixed, p_value};
+use crate::kinds::figures::{self, Along, At, Missing, ResultsView, both, ci, fixed, p_value, ScreenView};
 use crate::protocol::form::unit;
 
 /// A geometric mean as `summary.json` lists it.
@@ -300,6 +300,9 @@ figures::figure(
 
 /// The kind's results view ([`show`]).
 pub const VIEW: Option<ResultsView> = Some(show);
+
+/// No screen of its own: its trials show the shared screens.
+pub const SCREEN: Option<ScreenView> = None;
 
 /// The view: the sentences, then the figures of each form present.
 pub fn show(ui: &mut egui::Ui, summary: &Value) {

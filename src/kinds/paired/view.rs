@@ -6,7 +6,7 @@ use eframe::egui;
 use egui_plot::{Bar, BarChart, PlotPoint, Text};
 use serde_json::Value;
 
-use crate::kinds::figures::{self, At, Missing, ResultsView, p_value};
+use crate::kinds::figures::{self, At, Missing, ResultsView, p_value, ScreenView};
 
 /// The answers by what was chosen, as the report's chart lists them: each
 /// rendering, then `no_difference`.
@@ -67,6 +67,9 @@ pub fn sentences(summary: &At<'_>) -> Vec<Result<String, Missing>> {
 
 /// The kind's results view ([`show`]).
 pub const VIEW: Option<ResultsView> = Some(show);
+
+/// No screen of its own: its trials show the shared screens.
+pub const SCREEN: Option<ScreenView> = None;
 
 /// The view: the sentences, then the counts' chart.
 pub fn show(ui: &mut egui::Ui, summary: &Value) {

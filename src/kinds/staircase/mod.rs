@@ -7,8 +7,11 @@
 //! lowers the difference by one step (not below one step), any other
 //! answer raises it; the session ends after `reversals` reversals.
 //!
-//! It reuses the paired comparison's live trial and screens, so it needs no
-//! engine, participant or GUI code. Its trials come from its own
+//! It reuses the paired comparison's live trial, so it needs no engine or
+//! participant code, and shows its pairs on a screen of its own
+//! ([`PairScreen`], drawn by `view.rs`'s `SCREEN`): the window draws it
+//! with this folder's code, while the simulated participant and the LSL
+//! markers take it for the paired comparison's screen, its task. Its trials come from its own
 //! [`TrialSource`], whose state (difference, reversals) is rebuilt from the
 //! logged answers on resume. Its analysis ([`analysis`]) gives each
 //! participant's threshold and their mean; it has no results view
@@ -29,7 +32,9 @@ use crate::kinds::paired::{Compare, Paired, PairedData, PairedTrial};
 
 pub mod view;
 use crate::protocol::check::{ValueChecks, MAX_TRIALS};
-use crate::protocol::engine::{Action, Input, Status, TrialRecord, TrialSource};
+use crate::protocol::engine::{
+    Action, Input, KindScreen, OwnScreen, Screen, Status, TrialRecord, TrialSource,
+};
 use crate::protocol::kind::{Holds, Kinds, LiveTrial, Next, StudyKind, TrackAnswers};
 use crate::protocol::load::{Walk, read_object};
 use crate::protocol::plan::PlannedTrial;
@@ -189,10 +194,13 @@ impl StudyKind for Staircase {
     }
 
     fn start<K: Kinds>(t: &StaircaseTrial, now: Time, out: &mut VecDeque<Action<K>>) -> Track {
-        Track {
+        let from = out.len();
+        let track = Track {
             compare: <Paired as StudyKind>::start(&t.pair, now, out),
             delta_mu_s: t.delta_mu_s,
-        }
+        };
+        own_screens(out, from);
+        track
     }
 
     fn row(d: &StaircaseData) -> Vec<String> {
@@ -210,7 +218,10 @@ impl LiveTrial for Track {
     }
 
     fn on_timeout<K: Kinds>(&mut self, now: Time, out: &mut VecDeque<Action<K>>) -> Next {
-        self.compare.on_timeout(now, out)
+        let from = out.len();
+        let next = self.compare.on_timeout(now, out);
+        own_screens(out, from);
+        next
     }
 
     fn on_input<K: Kinds>(
@@ -219,13 +230,59 @@ impl LiveTrial for Track {
         input: Input,
         out: &mut VecDeque<Action<K>>,
     ) -> Next {
-        self.compare.on_input(now, input, out)
+        let from = out.len();
+        let next = self.compare.on_input(now, input, out);
+        own_screens(out, from);
+        next
     }
 
     fn data(&self, started: Time, now: Time, completed: bool) -> StaircaseData {
         StaircaseData {
             delta_mu_s: self.delta_mu_s,
             answer: self.compare.data(started, now, completed),
+        }
+    }
+}
+
+/// The staircase's own screen: the pair of a trial, stimulus `active`
+/// (0 first, 1 second) rendered until `until`. Its task is the paired
+/// comparison's screen it replaces.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairScreen {
+    /// The stimulus rendered.
+    pub active: usize,
+    /// End of the exploration (session time).
+    pub until: Time,
+}
+
+impl KindScreen for PairScreen {
+    fn name(&self) -> &'static str {
+        "staircase_pair"
+    }
+
+    fn task(&self) -> Screen {
+        Screen::Paired {
+            active: self.active,
+            until: self.until,
+            forced: None,
+        }
+    }
+}
+
+/// Shows the paired comparison's screens among `out`'s actions from `from`
+/// on as the staircase's own.
+fn own_screens<K: Kinds>(out: &mut VecDeque<Action<K>>, from: usize) {
+    for action in out.iter_mut().skip(from) {
+        if let Action::Show(Screen::Paired {
+            active,
+            until,
+            forced: None,
+        }) = action
+        {
+            *action = Action::ShowOwn(OwnScreen::new(PairScreen {
+                active: *active,
+                until: *until,
+            }));
         }
     }
 }
@@ -417,12 +474,19 @@ mod tests {
         }
     }
 
-    /// Runs (or resumes) the staircase session in `out`, paced.
-    fn run(out: &Path, resume: bool, pace: Option<f64>) {
-        let protocol = crate::protocol::load::parse::<crate::kinds::Registry>(PROTOCOL).unwrap();
-        let dir = ResultsDir::new(out);
-        let req = SessionRequest {
-            protocol: &protocol,
+    /// The toy protocol, read.
+    fn protocol() -> crate::kinds::Protocol {
+        crate::protocol::load::parse::<crate::kinds::Registry>(PROTOCOL).unwrap()
+    }
+
+    /// A session of `protocol` for participant p1 on the simulated device.
+    fn request(
+        protocol: &crate::kinds::Protocol,
+        resume: bool,
+        pace: Option<f64>,
+    ) -> SessionRequest<'_> {
+        SessionRequest {
+            protocol,
             protocol_bytes: PROTOCOL.as_bytes(),
             participant: "p1",
             participant_index: Some(0),
@@ -433,9 +497,85 @@ mod tests {
             streams: false,
             population: None,
             lsl: None,
-        };
+        }
+    }
+
+    /// Runs (or resumes) the staircase session in `out`, paced.
+    fn run(out: &Path, resume: bool, pace: Option<f64>) {
+        let protocol = protocol();
+        let dir = ResultsDir::new(out);
+        let req = request(&protocol, resume, pace);
         let planned = plan_session(&dir, &req, Observer::LABEL).unwrap();
         run_planned(&dir, planned, pace, |_| Observer, None, &mut |_, _| {}).unwrap();
+    }
+
+    /// The window draws the staircase's pairs with its own screen, reached
+    /// through the registry (the window names no kind), and passes on what
+    /// the participant clicks; the session takes the screen for the paired
+    /// comparison's, its task, and asks the paired choice.
+    #[test]
+    fn the_window_draws_the_pairs_with_the_kinds_own_screen() {
+        use egui_kittest::Harness;
+        use egui_kittest::kittest::Queryable;
+
+        use crate::gui::Command;
+        use crate::session::LiveSession;
+
+        let dir = tempfile::tempdir().unwrap();
+        let protocol = protocol();
+        let req = request(&protocol, false, None);
+        let mut live = LiveSession::start(&ResultsDir::new(dir.path()), &req).unwrap();
+        for _ in 0..100_000 {
+            if live.view().own.is_some() {
+                break;
+            }
+            live.feed(crate::session::Feed::Tick).unwrap();
+        }
+        let own = live.view().own.clone().expect("the first pair shown");
+        assert_eq!(own.name(), "staircase_pair");
+        assert!(matches!(
+            live.view().screen,
+            Some(Screen::Paired { active: 0, .. })
+        ));
+        let mut h = Harness::new_ui_state(
+            |ui, (live, commands): &mut (LiveSession, Vec<Command>)| {
+                crate::gui::participant::show(ui, live, &mut String::new(), commands, &mut None);
+            },
+            (live, Vec::new()),
+        );
+        h.get_by_label("Stimulus 1 of 2");
+        h.get_by_label("Feel stimulus 2").click();
+        h.run();
+        // The workspace under it reports where the pointer is; the screen's
+        // input is the one other command.
+        let inputs: Vec<&Command> =
+            h.state().1.iter().filter(|c| !matches!(c, Command::HandTarget(_))).collect();
+        assert_eq!(inputs, [&Command::Input(Input::Switch(1))]);
+    }
+
+    /// The simulated participant does what the staircase's own screen
+    /// asks, its task: the same as for the paired comparison's screen.
+    #[test]
+    fn the_simulated_participant_does_the_own_screens_task() {
+        use crate::participant::{Population, SimParticipant};
+        use crate::protocol::engine::OwnScreen;
+
+        let (now, until) = (Time::from_whole_secs(1), Time::from_whole_secs(4));
+        let own = Action::ShowOwn(OwnScreen::new(super::PairScreen { active: 0, until }));
+        let task = Action::Show(Screen::Paired {
+            active: 0,
+            until,
+            forced: None,
+        });
+        let react = |action: &Action| {
+            let mut p = SimParticipant::new(7, "p1", &Population::default());
+            let reaction = p.on_action(now, action, None);
+            (reaction, p.decide(now, &DeviceSample::default()))
+        };
+        let (reaction, decided) = react(&own);
+        // Told to slide from its start, as the paired screen tells it.
+        assert!(reaction.reset_to.is_some());
+        assert_eq!((reaction, decided), react(&task));
     }
 
     const CHILD_ENV: &str = "FRICTIONLAB_TOY_STAIRCASE_OUT";

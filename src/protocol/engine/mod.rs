@@ -45,9 +45,11 @@ use super::plan::{Plan, PlannedTrial};
 use crate::friction::ModelParams;
 use crate::time::Time;
 
+mod own;
 mod record;
 mod source;
 
+pub use own::{KindScreen, OwnScreen};
 pub use record::{Choice, Status, TrialRecord};
 pub use source::{TrialSource, next_position};
 
@@ -161,6 +163,9 @@ pub enum Action<K: Kinds> {
     Physical(Option<ModelParams>),
     /// Show this to the participant.
     Show(Screen),
+    /// Show the kind's own screen ([`OwnScreen`]), drawn by the kind's
+    /// window code; to everything else it is its task, a shared screen.
+    ShowOwn(OwnScreen),
     /// Ask the participant this.
     Ask(Question),
     /// An answer was refused: say why and ask again. Nothing is logged.
