@@ -172,4 +172,11 @@ fn a_bad_scaling_is_refused_at_its_json_path() {
     );
     let e = refused(&|v| v["design"]["sets"] = json!([]));
     assert!(e.iter().any(|e| e.contains("either `sets`")), "{e:?}");
+    // A bad scaling is the one error: `sets`, rightly absent, is not
+    // reported missing.
+    let e = refused(&|v| v["design"]["scaling"]["display"] = json!(3));
+    assert_eq!(
+        e,
+        ["design.scaling.display: invalid type: integer `3`, expected a string"]
+    );
 }

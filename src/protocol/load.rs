@@ -321,10 +321,34 @@ impl Walk {
         key: &str,
         path: &str,
     ) -> Option<Option<ModelParams>> {
+        self.optional_object(m, key, path, Walk::model)
+    }
+
+    /// The optional value under `key`, read by `read` (given it and its
+    /// path): `Some(None)` when absent, `None` when present but invalid.
+    pub fn optional_object<T>(
+        &mut self,
+        m: &Map<String, Value>,
+        key: &str,
+        path: &str,
+        read: impl FnOnce(&mut Self, &Value, &str) -> Option<T>,
+    ) -> Option<Option<T>> {
         match m.get(key) {
-            Some(v) => self.model(v, &join(path, key)).map(Some),
+            Some(v) => read(self, v, &join(path, key)).map(Some),
             None => Some(None),
         }
+    }
+
+    /// The field `key` read by `read`, which is given the whole object (a
+    /// field whose rule involves its neighbours' keys).
+    pub fn with<T>(
+        &mut self,
+        m: &Map<String, Value>,
+        key: &str,
+        path: &str,
+        read: impl FnOnce(&mut Self, &Map<String, Value>, &str, &str) -> Option<T>,
+    ) -> Option<T> {
+        read(self, m, key, path)
     }
 
     /// The required model object under `key`.

@@ -161,6 +161,45 @@ pub fn stimulus_model(model: &ModelParams, s: Stimulus) -> ModelParams {
     }
 }
 
+/// The design's `sets` (`key`) in its object `m` at `path`: exactly one of
+/// `sets` (seed 001's form) and `scaling` must be given; with `scaling`,
+/// none.
+fn read_sets(
+    w: &mut Walk,
+    m: &serde_json::Map<String, Value>,
+    key: &str,
+    path: &str,
+) -> Option<Vec<MagnitudeSet>> {
+    if m.contains_key("scaling") == m.contains_key(key) {
+        w.err(
+            crate::protocol::load::join(path, key),
+            "give either `sets` (seed 001's form) or `scaling` (one parameter at its levels), not both or neither",
+        );
+        return None;
+    }
+    if m.contains_key("scaling") {
+        return Some(Vec::new());
+    }
+    w.list(m, key, path, |w, v, p| {
+        read_object!(w, v, p, [], MagnitudeSet {
+            display: required,
+            model: model_field,
+            stimuli: list(Walk::value::<Stimulus>),
+        })
+    })
+}
+
+/// The design's `scaling` object `v` at `path`.
+fn read_scaling(w: &mut Walk, v: &Value, path: &str) -> Option<Scaling> {
+    read_object!(w, v, path, [], Scaling {
+        display: required,
+        reference: model_field,
+        parameter: required,
+        levels: required,
+        judged: optional(Quality::Friction),
+    })
+}
+
 /// Checks a scaling: the reference has the parameter, and every level is
 /// a valid value of it.
 fn check_scaling(sc: &Scaling, c: &mut ValueChecks) {
@@ -247,49 +286,10 @@ impl StudyKind for Magnitude {
     ];
 
     fn read(w: &mut Walk, v: &Value, path: &str) -> Option<MagnitudeDesign> {
-        let m = w.object(v, path, &["kind", "exploration_s", "sets", "scaling"])?;
-        let exploration_s = w.required(m, "exploration_s", path);
-        let scaling = match m.get("scaling") {
-            None => Some(None),
-            Some(v) => {
-                let p = crate::protocol::load::join(path, "scaling");
-                let mut scaling = || {
-                    read_object!(w, v, &p, [], Scaling {
-                        display: required,
-                        reference: model_field,
-                        parameter: required,
-                        levels: required,
-                        judged: optional(Quality::Friction),
-                    })
-                };
-                scaling().map(Some)
-            }
-        };
-        if m.contains_key("scaling") == m.contains_key("sets") {
-            w.err(
-                crate::protocol::load::join(path, "sets"),
-                "give either `sets` (seed 001's form) or `scaling` (one parameter at its levels), not both or neither",
-            );
-            return None;
-        }
-        if scaling.as_ref().is_some_and(Option::is_some) {
-            return Some(MagnitudeDesign {
-                exploration_s: exploration_s?,
-                sets: Vec::new(),
-                scaling: scaling?,
-            });
-        }
-        let sets = w.list(m, "sets", path, |w, v, p| {
-            read_object!(w, v, p, [], MagnitudeSet {
-                display: required,
-                model: model_field,
-                stimuli: list(Walk::value::<Stimulus>),
-            })
-        });
-        Some(MagnitudeDesign {
-            exploration_s: exploration_s?,
-            sets: sets?,
-            scaling: scaling?,
+        read_object!(w, v, path, ["kind"], MagnitudeDesign {
+            exploration_s: required,
+            sets: with(read_sets),
+            scaling: optional_object(read_scaling),
         })
     }
 
