@@ -103,12 +103,14 @@ pub struct Walk {
 }
 
 /// Reads the object `v` at `path` into the struct `T`, each field named
-/// once: its key is the field's name, and after it the [`Walk`] method
-/// that reads it, with that method's last arguments if it has any
-/// (`required`, `model_field`, `optional(default)`, `list(read_each)`).
-/// Keys that are no field (and not among the `[...]` also allowed, such as
-/// a design's `kind`) are refused; every problem is recorded at its JSON
-/// path, and the fields are read in the order listed.
+/// once: its key is the field's name (or the `as "key"` after it, for a
+/// key that is no Rust name), and after it the [`Walk`] method that reads
+/// it, with that method's last arguments if it has any (`required`,
+/// `model_field`, `optional(default)`, `list(read_each)`,
+/// `optional_object(read)`, `with(read)`). Keys that are no field (and
+/// not among the `[...]` also allowed, such as a design's `kind`) are
+/// refused; every problem is recorded at its JSON path, and the fields are
+/// read in the order listed.
 ///
 /// ```ignore
 /// read_object!(w, v, path, ["kind"], PairedDesign {
@@ -118,14 +120,33 @@ pub struct Walk {
 /// ```
 macro_rules! read_object {
     ($w:ident, $v:expr, $path:expr, [$($also:literal),* $(,)?], $T:ident {
-        $($field:ident: $how:ident $(($($arg:expr),* $(,)?))?),+ $(,)?
+        $($field:ident $(as $key:literal)?: $how:ident $(($($arg:expr),* $(,)?))?),+ $(,)?
     }) => {{
-        let m = $w.object($v, $path, &[$($also,)* $(stringify!($field)),+])?;
-        $(let $field = $w.$how(m, stringify!($field), $path $($(, $arg)*)?);)+
+        let m = $w.object(
+            $v,
+            $path,
+            &[$($also,)* $($crate::protocol::load::key_of!($field $($key)?)),+],
+        )?;
+        $(let $field = $w.$how(
+            m,
+            $crate::protocol::load::key_of!($field $($key)?),
+            $path $($(, $arg)*)?
+        );)+
         Some($T { $($field: $field?),+ })
     }};
 }
 pub(crate) use read_object;
+
+/// A field's key in [`read_object!`]: its `as "key"`, else its name.
+macro_rules! key_of {
+    ($field:ident) => {
+        stringify!($field)
+    };
+    ($field:ident $key:literal) => {
+        $key
+    };
+}
+pub(crate) use key_of;
 
 /// `path.key` (just `key` at the root `$`).
 #[must_use]
@@ -239,49 +260,25 @@ impl Walk {
     }
 
     fn protocol<K: Kinds>(&mut self, v: &Value) -> Option<Protocol<K>> {
-        const KEYS: [&str; 11] = [
-            "$schema",
-            "id",
-            "title",
-            "description",
-            "randomization",
-            "repetitions",
-            "block_order",
-            "break_s",
-            "instructions",
-            "design",
-            "validation",
-        ];
-        let m = self.object(v, "$", &KEYS)?;
-        let p = "$";
-        let schema = self.optional::<Option<String>>(m, "$schema", p, None);
-        let id = self.required::<String>(m, "id", p);
-        let title = self.required::<String>(m, "title", p);
-        let description = self.optional(m, "description", p, String::new());
-        let randomization = self.optional(m, "randomization", p, Randomization::default());
-        let repetitions = self.optional(m, "repetitions", p, 1_u32);
-        let block_order = self.optional(m, "block_order", p, BlockOrder::default());
-        let break_s = self.optional(m, "break_s", p, 0.0_f64);
-        let instructions = self.optional(m, "instructions", p, String::new());
-        let validation = self.optional(m, "validation", p, Vec::new());
-        let design = if let Some(d) = m.get("design") {
-            K::read_design(self, d, "design")
-        } else {
-            self.err("design", "missing required field");
-            None
-        };
-        Some(Protocol {
-            schema: schema?,
-            id: id?,
-            title: title?,
-            description: description?,
-            randomization: randomization?,
-            repetitions: repetitions?,
-            block_order: block_order?,
-            break_s: break_s?,
-            instructions: instructions?,
-            design: design?,
-            validation: validation?,
+        let w = self;
+        read_object!(w, v, "$", [], Protocol {
+            schema as "$schema": optional(None),
+            id: required,
+            title: required,
+            description: optional(String::new()),
+            randomization: optional(Randomization::default()),
+            repetitions: optional(1_u32),
+            block_order: optional(BlockOrder::default()),
+            break_s: optional(0.0_f64),
+            instructions: optional(String::new()),
+            design: with(|w: &mut Walk, m: &Map<String, Value>, key: &str, path: &str| {
+                let Some(d) = m.get(key) else {
+                    w.err(join(path, key), "missing required field");
+                    return None;
+                };
+                K::read_design(w, d, &join(path, key))
+            }),
+            validation: optional(Vec::new()),
         })
     }
 
