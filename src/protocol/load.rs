@@ -107,7 +107,7 @@ pub struct Walk {
 /// key that is no Rust name), and after it the [`Walk`] method that reads
 /// it, with that method's last arguments if it has any (`required`,
 /// `model_field`, `optional(default)`, `list(read_each)`,
-/// `optional_object(read)`, `with(read)`). Keys that are no field (and
+/// `required_object(read)`, `optional_object(read)`, `with(read)`). Keys that are no field (and
 /// not among the `[...]` also allowed, such as a design's `kind`) are
 /// refused; every problem is recorded at its JSON path, and the fields are
 /// read in the order listed.
@@ -271,13 +271,7 @@ impl Walk {
             block_order: optional(BlockOrder::default()),
             break_s: optional(0.0_f64),
             instructions: optional(String::new()),
-            design: with(|w: &mut Walk, m: &Map<String, Value>, key: &str, path: &str| {
-                let Some(d) = m.get(key) else {
-                    w.err(join(path, key), "missing required field");
-                    return None;
-                };
-                K::read_design(w, d, &join(path, key))
-            }),
+            design: required_object(K::read_design),
             validation: optional(Vec::new()),
         })
     }
@@ -355,8 +349,20 @@ impl Walk {
         key: &str,
         path: &str,
     ) -> Option<ModelParams> {
+        self.required_object(m, key, path, Walk::model)
+    }
+
+    /// The required value under `key`, read by `read` (given it and its
+    /// path).
+    pub fn required_object<T>(
+        &mut self,
+        m: &Map<String, Value>,
+        key: &str,
+        path: &str,
+        read: impl FnOnce(&mut Self, &Value, &str) -> Option<T>,
+    ) -> Option<T> {
         if let Some(v) = m.get(key) {
-            self.model(v, &join(path, key))
+            read(self, v, &join(path, key))
         } else {
             self.err(join(path, key), "missing required field");
             None

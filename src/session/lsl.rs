@@ -394,6 +394,11 @@ impl Publishing {
     fn mark(&mut self, t: Time, event: &str, extra: impl FnOnce(&mut Map<String, Value>)) {
         let mut m = fields(event);
         extra(&mut m);
+        self.marker_at(t, m);
+    }
+
+    /// Pushes the marker `m` stamped at session time `t`.
+    fn marker_at(&mut self, t: Time, m: Map<String, Value>) {
         let at = self.clock().at(t);
         self.publisher.marker(at, m);
     }
@@ -565,8 +570,7 @@ impl Publishing {
     /// whose task it is): its marker, if it has one.
     fn shown(&mut self, t: Time, trial: Option<usize>, screen: &Screen, own: Option<&str>) {
         if let Some(m) = screen_marker(t, trial, screen, own) {
-            let at = self.clock().at(t);
-            self.publisher.marker(at, m);
+            self.marker_at(t, m);
         }
     }
 

@@ -170,14 +170,15 @@ fn read_sets(
     key: &str,
     path: &str,
 ) -> Option<Vec<MagnitudeSet>> {
-    if m.contains_key("scaling") == m.contains_key(key) {
+    let scaling = m.contains_key("scaling");
+    if scaling == m.contains_key(key) {
         w.err(
             crate::protocol::load::join(path, key),
             "give either `sets` (seed 001's form) or `scaling` (one parameter at its levels), not both or neither",
         );
         return None;
     }
-    if m.contains_key("scaling") {
+    if scaling {
         return Some(Vec::new());
     }
     w.list(m, key, path, |w, v, p| {

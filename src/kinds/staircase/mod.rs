@@ -194,13 +194,10 @@ impl StudyKind for Staircase {
     }
 
     fn start<K: Kinds>(t: &StaircaseTrial, now: Time, out: &mut VecDeque<Action<K>>) -> Track {
-        let from = out.len();
-        let track = Track {
-            compare: <Paired as StudyKind>::start(&t.pair, now, out),
+        Track {
+            compare: own_screens(out, |out| <Paired as StudyKind>::start(&t.pair, now, out)),
             delta_mu_s: t.delta_mu_s,
-        };
-        own_screens(out, from);
-        track
+        }
     }
 
     fn row(d: &StaircaseData) -> Vec<String> {
@@ -218,10 +215,7 @@ impl LiveTrial for Track {
     }
 
     fn on_timeout<K: Kinds>(&mut self, now: Time, out: &mut VecDeque<Action<K>>) -> Next {
-        let from = out.len();
-        let next = self.compare.on_timeout(now, out);
-        own_screens(out, from);
-        next
+        own_screens(out, |out| self.compare.on_timeout(now, out))
     }
 
     fn on_input<K: Kinds>(
@@ -230,10 +224,7 @@ impl LiveTrial for Track {
         input: Input,
         out: &mut VecDeque<Action<K>>,
     ) -> Next {
-        let from = out.len();
-        let next = self.compare.on_input(now, input, out);
-        own_screens(out, from);
-        next
+        own_screens(out, |out| self.compare.on_input(now, input, out))
     }
 
     fn data(&self, started: Time, now: Time, completed: bool) -> StaircaseData {
@@ -269,9 +260,14 @@ impl KindScreen for PairScreen {
     }
 }
 
-/// Shows the paired comparison's screens among `out`'s actions from `from`
-/// on as the staircase's own.
-fn own_screens<K: Kinds>(out: &mut VecDeque<Action<K>>, from: usize) {
+/// Runs `push` (the paired comparison's live trial pushing its actions)
+/// and shows the screens it pushed as the staircase's own.
+fn own_screens<K: Kinds, R>(
+    out: &mut VecDeque<Action<K>>,
+    push: impl FnOnce(&mut VecDeque<Action<K>>) -> R,
+) -> R {
+    let from = out.len();
+    let pushed = push(out);
     for action in out.iter_mut().skip(from) {
         if let Action::Show(Screen::Paired {
             active,
@@ -285,6 +281,7 @@ fn own_screens<K: Kinds>(out: &mut VecDeque<Action<K>>, from: usize) {
             }));
         }
     }
+    pushed
 }
 
 /// The staircase's trials: a pure function of the design, the plan seed

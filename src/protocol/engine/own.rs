@@ -90,24 +90,13 @@ mod tests {
     use super::*;
     use crate::time::Time;
 
+    /// A screen type per `KIND` (two kinds' screens are two types).
     #[derive(Debug, Clone, PartialEq)]
-    struct Card(u8);
+    struct Card<const KIND: u8>(u8);
 
-    impl KindScreen for Card {
+    impl<const KIND: u8> KindScreen for Card<KIND> {
         fn name(&self) -> &'static str {
-            "card"
-        }
-        fn task(&self) -> Screen {
-            Screen::Break { until: Time::ZERO }
-        }
-    }
-
-    #[derive(Debug, Clone, PartialEq)]
-    struct Other(u8);
-
-    impl KindScreen for Other {
-        fn name(&self) -> &'static str {
-            "other"
+            ["card", "other"][usize::from(KIND)]
         }
         fn task(&self) -> Screen {
             Screen::Break { until: Time::ZERO }
@@ -116,15 +105,15 @@ mod tests {
 
     #[test]
     fn an_own_screen_is_its_kinds_value_equal_only_to_the_same_value() {
-        let card = OwnScreen::new(Card(1));
-        assert_eq!(card.get::<Card>(), Some(&Card(1)));
-        assert_eq!(card.get::<Other>(), None);
+        let card = OwnScreen::new(Card::<0>(1));
+        assert_eq!(card.get::<Card<0>>(), Some(&Card(1)));
+        assert_eq!(card.get::<Card<1>>(), None);
         assert_eq!(
             (card.name(), card.task()),
             ("card", Screen::Break { until: Time::ZERO })
         );
-        assert_eq!(card, OwnScreen::new(Card(1)));
-        assert_ne!(card, OwnScreen::new(Card(2)));
-        assert_ne!(card, OwnScreen::new(Other(1)));
+        assert_eq!(card, OwnScreen::new(Card::<0>(1)));
+        assert_ne!(card, OwnScreen::new(Card::<0>(2)));
+        assert_ne!(card, OwnScreen::new(Card::<1>(1)));
     }
 }
