@@ -361,12 +361,11 @@ impl Walk {
         path: &str,
         read: impl FnOnce(&mut Self, &Value, &str) -> Option<T>,
     ) -> Option<T> {
-        if let Some(v) = m.get(key) {
-            read(self, v, &join(path, key))
-        } else {
+        let found = self.optional_object(m, key, path, read)?;
+        if found.is_none() {
             self.err(join(path, key), "missing required field");
-            None
         }
+        found
     }
 
     /// A friction model object, dispatched on its `model` tag, then validated.
