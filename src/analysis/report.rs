@@ -100,26 +100,8 @@ pub fn line_chart_in(
     fits: &[(f64, f64, f64, f64)],
     ys: std::ops::Range<f64>,
 ) -> String {
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (460, 320)).into_drawing_area();
-        let _ = root.fill(&WHITE);
-        let xs = range(series.iter().flat_map(|s| s.1.iter().map(|p| p.0)), false);
-        let Ok(mut chart) = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 15))
-            .margin(8)
-            .x_label_area_size(34)
-            .y_label_area_size(52)
-            .build_cartesian_2d(xs, ys)
-        else {
-            return svg_fallback(title);
-        };
-        let _ = chart
-            .configure_mesh()
-            .x_desc(x_label)
-            .y_desc(y_label)
-            .light_line_style(WHITE)
-            .draw();
+    let xs = range(series.iter().flat_map(|s| s.1.iter().map(|p| p.0)), false);
+    xy_chart(title, 320, (x_label, y_label), (xs, ys), |chart| {
         for (i, (name, pts)) in series.iter().enumerate() {
             let color = Palette99::pick(i).to_rgba();
             if let Ok(s) =
@@ -135,6 +117,46 @@ pub fn line_chart_in(
             let color = Palette99::pick(i).to_rgba();
             let _ = chart.draw_series(LineSeries::new([(x0, y0), (x1, y1)], color.stroke_width(1)));
         }
+    })
+}
+
+/// An x-y chart's drawing area.
+type XyChart<'a, 'b> = ChartContext<
+    'a,
+    SVGBackend<'b>,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+/// The SVG of a chart 460 pixels wide and `height` high over `xs` x `ys`
+/// (`ranges`), captioned `title`, its axes labelled `labels` (x, y), drawn
+/// by `draw`, with the legend of its labelled series upper left.
+fn xy_chart(
+    title: &str,
+    height: u32,
+    labels: (&str, &str),
+    (xs, ys): (std::ops::Range<f64>, std::ops::Range<f64>),
+    draw: impl FnOnce(&mut XyChart<'_, '_>),
+) -> String {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (460, height)).into_drawing_area();
+        let _ = root.fill(&WHITE);
+        let Ok(mut chart) = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 15))
+            .margin(8)
+            .x_label_area_size(34)
+            .y_label_area_size(52)
+            .build_cartesian_2d(xs, ys)
+        else {
+            return svg_fallback(title);
+        };
+        let _ = chart
+            .configure_mesh()
+            .x_desc(labels.0)
+            .y_desc(labels.1)
+            .light_line_style(WHITE)
+            .draw();
+        draw(&mut chart);
         let _ = chart
             .configure_series_labels()
             .position(SeriesLabelPosition::UpperLeft)
@@ -156,27 +178,9 @@ pub fn quadrant_chart(
     series: &[(String, Vec<(f64, f64)>)],
     first_colour: usize,
 ) -> String {
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (460, 360)).into_drawing_area();
-        let _ = root.fill(&WHITE);
-        let xs = range(series.iter().flat_map(|s| s.1.iter().map(|p| p.0)), true);
-        let ys = range(series.iter().flat_map(|s| s.1.iter().map(|p| p.1)), true);
-        let Ok(mut chart) = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 15))
-            .margin(8)
-            .x_label_area_size(34)
-            .y_label_area_size(52)
-            .build_cartesian_2d(xs.clone(), ys.clone())
-        else {
-            return svg_fallback(title);
-        };
-        let _ = chart
-            .configure_mesh()
-            .x_desc(labels.0)
-            .y_desc(labels.1)
-            .light_line_style(WHITE)
-            .draw();
+    let xs = range(series.iter().flat_map(|s| s.1.iter().map(|p| p.0)), true);
+    let ys = range(series.iter().flat_map(|s| s.1.iter().map(|p| p.1)), true);
+    xy_chart(title, 360, labels, (xs.clone(), ys.clone()), |chart| {
         let _ = chart.draw_series(LineSeries::new(
             [(xs.start, 0.0), (xs.end, 0.0)],
             BLACK.stroke_width(1),
@@ -193,15 +197,7 @@ pub fn quadrant_chart(
                     .legend(move |(x, y)| Circle::new((x + 8, y), 4, color.filled()));
             }
         }
-        let _ = chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .border_style(BLACK)
-            .background_style(WHITE.mix(0.85))
-            .draw();
-        let _ = root.present();
-    }
-    svg
+    })
 }
 
 /// A bar chart of counts.
@@ -265,28 +261,10 @@ pub fn scatter_curves(
     scatter: &[(String, Vec<(f64, f64)>)],
     curves: &[(String, Vec<(f64, f64)>)],
 ) -> String {
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (460, 320)).into_drawing_area();
-        let _ = root.fill(&WHITE);
-        let all = || scatter.iter().chain(curves).flat_map(|s| s.1.iter());
-        let xs = range(all().map(|p| p.0), false);
-        let ys = range(all().map(|p| p.1), true);
-        let Ok(mut chart) = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 15))
-            .margin(8)
-            .x_label_area_size(34)
-            .y_label_area_size(52)
-            .build_cartesian_2d(xs, ys)
-        else {
-            return svg_fallback(title);
-        };
-        let _ = chart
-            .configure_mesh()
-            .x_desc(labels.0)
-            .y_desc(labels.1)
-            .light_line_style(WHITE)
-            .draw();
+    let all = || scatter.iter().chain(curves).flat_map(|s| s.1.iter());
+    let xs = range(all().map(|p| p.0), false);
+    let ys = range(all().map(|p| p.1), true);
+    xy_chart(title, 320, labels, (xs, ys), |chart| {
         for (i, (name, pts)) in curves.iter().enumerate() {
             let color = Palette99::pick(i).to_rgba();
             if let Ok(s) =
@@ -308,15 +286,7 @@ pub fn scatter_curves(
                     .legend(move |(x, y)| Circle::new((x + 8, y), 3, color.filled()));
             }
         }
-        let _ = chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .border_style(BLACK)
-            .background_style(WHITE.mix(0.85))
-            .draw();
-        let _ = root.present();
-    }
-    svg
+    })
 }
 
 /// The whole page.
