@@ -292,9 +292,55 @@ fn quick_sessions_run_on_the_firmware_in_qemu_and_rerender_bit_exact_issue_16() 
         // A trial's stream ends where its device was lost: none shows the
         // device started afresh by the reconnection.
         for x in &r.reports {
-            assert!(x["restarted_row"].is_null(), "{x}, records {statuses:?}");
+            assert!(
+                x["restarted_row"].is_null(),
+                "{x}, records {statuses:?}\n{}",
+                restart_evidence(x, &log)
+            );
         }
     }
+}
+
+/// What a stream shows around a device restart (`x`: its rerender
+/// report): the rows (`t_s,...,render,selected,watchdog,tick`) three either
+/// side, and each render its trial's record lists (model kind, who rendered
+/// it), for a failure to be read without the run's files.
+fn restart_evidence(
+    x: &serde_json::Value,
+    log: &frictionlab::results::ReadLog<Registry>,
+) -> String {
+    let at = x["restarted_row"]
+        .as_u64()
+        .map_or(0, |r| usize::try_from(r).unwrap());
+    let stream = std::fs::read_to_string(x["stream"].as_str().unwrap()).unwrap();
+    let rows: Vec<String> = stream
+        .lines()
+        .skip(1)
+        .enumerate()
+        .filter(|(i, _)| i.abs_diff(at) <= 3)
+        .map(|(i, l)| format!("  {l}{}", if i == at { "  <- restart" } else { "" }))
+        .collect();
+    let renders: Vec<String> = log
+        .trials
+        .iter()
+        .filter(|t| u64::try_from(t.trial).ok() == x["trial"].as_u64())
+        .nth(usize::try_from(x["run"].as_u64().unwrap_or(1)).unwrap() - 1)
+        .map(|t| {
+            t.rendering
+                .iter()
+                .map(|e| {
+                    format!(
+                        "{:?} {:?}",
+                        e.model
+                            .as_ref()
+                            .map(frictionlab::friction::ModelParams::kind),
+                        e.mode
+                    )
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    format!("{}\nrenders: {renders:?}", rows.join("\n"))
 }
 
 /// QEMU killed in the middle of a session: the trial under way is aborted
