@@ -8,14 +8,16 @@
 //!   in the tick numbers).
 //! - The main loop reads the link, decodes frames and hands each valid
 //!   message to [`Shared::receive`] in a critical section, and drains the
-//!   transmit queue into the link.
+//!   transmit queue into the link. A host's `Hello` first clears the
+//!   queue but the frame under way ([`TxQueue::new_host`]), so the replies
+//!   always fit.
 //!
 //! Nothing allocates: the queue and the decoder are fixed-size.
 
 use frictionlab_core::friction::ForceLimit;
 use frictionlab_core::onboard::Firmware;
-use frictionlab_core::wire::{MAX_FRAME, Message, encode};
-use heapless::Deque;
+use frictionlab_core::tx::TxQueue;
+use frictionlab_core::wire::Message;
 
 use crate::board::Board;
 
@@ -28,7 +30,7 @@ pub struct Shared<B: Board> {
     pub firmware: Firmware<f32>,
     /// The board.
     pub board: B,
-    tx: Deque<u8, TX_BYTES>,
+    tx: TxQueue<TX_BYTES>,
 }
 
 impl<B: Board> Shared<B> {
@@ -39,14 +41,20 @@ impl<B: Board> Shared<B> {
         Shared {
             firmware: Firmware::new(B::LOOP_RATE_HZ, limit, board.apparatus()),
             board,
-            tx: Deque::new(),
+            tx: TxQueue::new(),
         }
     }
 
     /// A valid message from the host.
     pub fn receive(&mut self, message: &Message) {
+        if matches!(message, Message::Hello { .. }) {
+            // Room for the replies, whatever the last host left queued.
+            self.tx.new_host();
+        }
         let tx = &mut self.tx;
-        self.firmware.receive(message, |reply| queue(tx, &reply));
+        self.firmware.receive(message, |reply| {
+            tx.push(&reply);
+        });
         self.board.host_message(message);
     }
 
@@ -59,40 +67,22 @@ impl<B: Board> Shared<B> {
         } = self;
         board.tick(
             1.0 / f64::from(B::LOOP_RATE_HZ),
-            |input, button, end_stop| firmware.tick(input, button, end_stop, |m| queue(tx, &m)),
+            |input, button, end_stop| {
+                firmware.tick(input, button, end_stop, |m| {
+                    tx.push(&m);
+                })
+            },
         );
     }
 
     /// Copies up to `out.len()` queued bytes into `out`, leaving them
     /// queued; returns how many.
     pub fn peek_tx(&self, out: &mut [u8]) -> usize {
-        let mut n = 0;
-        for (slot, byte) in out.iter_mut().zip(self.tx.iter()) {
-            *slot = *byte;
-            n += 1;
-        }
-        n
+        self.tx.peek(out)
     }
 
     /// Removes the first `n` queued bytes (sent).
     pub fn pop_tx(&mut self, n: usize) {
-        for _ in 0..n {
-            self.tx.pop_front();
-        }
-    }
-}
-
-/// Queues `message`'s frame whole, or drops it.
-fn queue(tx: &mut Deque<u8, TX_BYTES>, message: &Message) {
-    let mut frame = [0_u8; MAX_FRAME];
-    let Ok(len) = encode(message, &mut frame) else {
-        return;
-    };
-    if TX_BYTES - tx.len() < len {
-        return;
-    }
-    for byte in &frame[..len] {
-        // Room was checked above.
-        let _ = tx.push_back(*byte);
+        self.tx.pop(n);
     }
 }

@@ -16,6 +16,8 @@
 //!   move.
 //! - [`wire`]: the device wire protocol's messages, framing (COBS + CRC)
 //!   and sans-IO decoder, for the host and the firmware alike.
+//! - [`tx`]: the device's transmit queue of whole frames, which a new
+//!   host's `Hello` clears for its replies.
 //!
 //! Nothing here reads a clock, does I/O, allocates or keeps global state:
 //! time enters only as a step's `dt`.
@@ -29,6 +31,7 @@ pub mod onboard;
 pub mod plant;
 pub mod real;
 pub mod render;
+pub mod tx;
 pub mod wire;
 
 pub use real::Real;
