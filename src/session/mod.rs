@@ -65,7 +65,9 @@
 //! exploration, answer, Fitts movement: whenever [`Engine::in_trial`]) has
 //! that trial aborted and re-queued at once (before any later tick is
 //! read, so its stream ends at the loss: a device that answers again has
-//! started afresh, which no trial's stream can show); every other input
+//! started afresh, which no trial's stream can show; a device whose
+//! telemetry shows it started afresh, a `Hello` the link delivered late,
+//! is lost for that tick); every other input
 //! waits until the device answers again. How long to wait is the shell's call
 //! ([`Session::lost_for_s`]).
 //!

@@ -296,6 +296,7 @@ impl super::backend::OnBoard for Port {
             // render and clock known.
             let dt = 1.0 / f64::from(on_board.map_or(1, |o| o.loop_rate_hz.max(1)));
             for t in &self.telemetry {
+                self.board.started_afresh(t);
                 self.board.observe(t, now_s, dt);
             }
             return false;
@@ -305,10 +306,18 @@ impl super::backend::OnBoard for Port {
         let connected = reading.link == LinkState::Connected;
         let device_dt = 1.0 / f64::from(on_board.map_or(1, |o| o.loop_rate_hz.max(1)));
         for t in &self.telemetry {
+            // A device that started afresh is one lost and back: the
+            // session's trial ends before this tick (its stream cannot
+            // show the restart).
+            let link = if self.board.started_afresh(t) {
+                LinkState::Lost
+            } else {
+                reading.link
+            };
             let at = self.board.observe(t, now_s, device_dt);
             emit(Tick {
                 button: t.flags & status::BUTTON != 0,
-                link: reading.link,
+                link,
                 render: self.board.device_render,
                 selected: t.flags & status::SELECTED != 0,
                 watchdog: t.flags & status::WATCHDOG != 0,
@@ -369,6 +378,8 @@ struct OnBoardState {
     /// and the last tick seen.
     anchor: Option<(u32, f64)>,
     last_tick: Option<u32>,
+    /// The tick and label of the last telemetry since connecting.
+    last_label: Option<(u32, u8)>,
     last_now: f64,
     ticks: u64,
     gaps: u64,
@@ -385,6 +396,7 @@ impl OnBoardState {
             sent_s: None,
             anchor: None,
             last_tick: None,
+            last_label: None,
             last_now: 0.0,
             ticks: 0,
             gaps: 0,
@@ -421,6 +433,20 @@ impl OnBoardState {
             None => send(Message::Clear { render: label }),
         }
         self.sent_s = Some(now_s);
+    }
+
+    /// Whether `t` shows the device started afresh since the telemetry
+    /// of the tick before it: its render changed without a select. Only a
+    /// `Hello` does that, and one comes after the link is up when the link
+    /// lags by more than [`link::HELLO_EVERY_S`]: the host connects on the
+    /// answer to an earlier `Hello` while later ones are still on their
+    /// way. Across lost telemetry it cannot tell (the lost frame may have
+    /// been the select's), and a stream is not replayed past a gap anyway.
+    fn started_afresh(&mut self, t: &Telemetry) -> bool {
+        let last = self.last_label.replace((t.tick, t.render));
+        last.is_some_and(|(tick, label)| {
+            t.tick == tick.wrapping_add(1) && label != t.render && t.flags & status::SELECTED == 0
+        })
     }
 
     /// Notes one telemetry: the render in effect, gaps, and its time on the
@@ -467,6 +493,7 @@ impl OnBoardState {
         self.device_render = UNKNOWN_RENDER;
         self.anchor = None;
         self.last_tick = None;
+        self.last_label = None;
         self.sent_s = None;
     }
 }
@@ -523,5 +550,27 @@ mod tests {
         board.wanted = (20, None);
         board.send(0.7, None, |_| {});
         assert_eq!(board.resend_after(), 0.05);
+    }
+
+    /// A render that changed without a select from one tick to the next
+    /// is the device started afresh (a `Hello` that arrived late), told
+    /// once; a select's change, a change across lost telemetry, and the
+    /// first telemetry of a connection are not.
+    #[test]
+    fn a_render_changed_without_a_select_is_the_device_started_afresh() {
+        let mut board = OnBoardState::new();
+        let selected = |tick, render| Telemetry {
+            flags: status::SELECTED,
+            ..telemetry(tick, render)
+        };
+        assert!(!board.started_afresh(&telemetry(1, 0)), "the first");
+        assert!(!board.started_afresh(&selected(2, 5)));
+        assert!(!board.started_afresh(&telemetry(3, 5)));
+        assert!(board.started_afresh(&telemetry(4, 0)), "5 to 0 unselected");
+        assert!(!board.started_afresh(&telemetry(5, 0)));
+        assert!(!board.started_afresh(&selected(6, 6)));
+        assert!(!board.started_afresh(&telemetry(8, 0)), "across a gap");
+        board.disconnected();
+        assert!(!board.started_afresh(&telemetry(9, 7)), "a new connection");
     }
 }
