@@ -1,7 +1,8 @@
 //! The one work pool: items handed to `jobs` scoped threads in order, each
 //! result kept with its item's position; after a failure no new item
-//! starts. Used by `simulate` (one session per item) and `power` (one
-//! study per item).
+//! starts. Used by `simulate` (one session per item), `power` (one
+//! study per item), the log check (one file per item) and the
+//! discrimination analysis (one track's fit and intervals per item).
 
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};

@@ -167,6 +167,39 @@ pub fn fit_track_with(
     }
 }
 
+/// A track: its participant and level (its bits), and its answers
+/// (difference, correct).
+type Track = ((String, u64), Vec<(f64, bool)>);
+
+/// Fits each track (participant, level bits, answers), in their order, on
+/// `jobs` threads when `intervals` are asked for. Each track's bootstrap
+/// has its own seed (its participant and level), so the fits are the same
+/// at any number of threads. Without intervals a fit is cheap, and `power`
+/// already runs its studies on every core: one thread then.
+fn fit_tracks(
+    design: &DiscriminationDesign,
+    tracks: &[Track],
+    intervals: bool,
+    jobs: usize,
+) -> Vec<TrackFit> {
+    let jobs = if intervals { jobs } else { 1 };
+    crate::parallel::run(tracks, jobs, |((p, level), answers)| {
+        Ok::<_, std::convert::Infallible>(fit_track_with(
+            design,
+            p,
+            f64::from_bits(*level),
+            answers.clone(),
+            intervals,
+        ))
+    })
+    .into_iter()
+    .map(|fit| match fit {
+        Ok(fit) => fit,
+        Err(never) => match never {},
+    })
+    .collect()
+}
+
 /// Analyses the discrimination rows of `folder`, whose fits follow
 /// `design` (the first of the folder's session logs that has one); with
 /// `intervals`, each track's bootstrap and profile intervals too.
@@ -202,12 +235,9 @@ pub fn analyze(
             .or_default()
             .push((difference, correct));
     }
-    let tracks: Vec<TrackFit> = by_track
-        .into_iter()
-        .map(|((p, level), answers)| {
-            fit_track_with(&design, &p, f64::from_bits(level), answers, intervals)
-        })
-        .collect();
+    let jobs = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
+    let by_track: Vec<Track> = by_track.into_iter().collect();
+    let tracks = fit_tracks(&design, &by_track, intervals, jobs);
     let mut notes = Vec::new();
     for t in &tracks {
         if t.threshold.is_none() {
@@ -411,5 +441,53 @@ pub fn counted(s: &Value, out: &mut KindCounted<'_>) {
             &format!("levels[level={}].weber_mean_ci", key(&l["level"])),
             &l["weber_mean_ci"],
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The shipped quick protocol's design, with `bootstrap` samples.
+    fn design(bootstrap: u32) -> DiscriminationDesign {
+        let protocol: Value = serde_json::from_str(include_str!(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/protocols/discrimination-quick.json"
+        )))
+        .unwrap_or_else(|e| panic!("the protocol: {e}"));
+        let mut design = protocol["design"].clone();
+        if let Some(d) = design.as_object_mut() {
+            d.remove("kind");
+        }
+        design["fit"]["bootstrap"] = bootstrap.into();
+        serde_json::from_value(design).unwrap_or_else(|e| panic!("the design: {e}"))
+    }
+
+    #[test]
+    fn tracks_fitted_on_two_threads_are_the_tracks_fitted_on_one() {
+        let design = design(40);
+        // Three participants at two levels, answers more often right the
+        // larger the difference.
+        let mut tracks = Vec::new();
+        for (k, p) in ["a", "b", "c"].into_iter().enumerate() {
+            for level in [0.7_f64, 1.3] {
+                let answers = (0..40_usize)
+                    .map(|i| {
+                        let difference = 0.02 * (1 + i % 10) as f64;
+                        (difference, (i * 7 + 3 * k) % 10 < 5 + i % 10 / 2)
+                    })
+                    .collect();
+                tracks.push(((p.to_owned(), level.to_bits()), answers));
+            }
+        }
+        let json = |fits: Vec<TrackFit>| fits.iter().map(fit_json).collect::<Vec<Value>>();
+        let one = json(fit_tracks(&design, &tracks, true, 1));
+        let two = json(fit_tracks(&design, &tracks, true, 2));
+        assert_eq!(one.len(), 6);
+        assert!(
+            one.iter().any(|f| f["weber_ci"].is_array()),
+            "no track has a bootstrap interval: {one:?}"
+        );
+        assert_eq!(one, two);
     }
 }
