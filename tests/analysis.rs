@@ -657,6 +657,30 @@ fn unusable_input_exits_2_with_place_and_reason() {
             "{name}: nothing written"
         );
     }
+    // A report folder that is a file is refused before the analysis, the
+    // file left as it was.
+    let dir = tempfile::tempdir().unwrap();
+    magnitude_fixture(dir.path());
+    let out = dir.path().join("report.txt");
+    std::fs::write(&out, "mine").unwrap();
+    let o = frictionlab(&[
+        "analyze",
+        dir.path().to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(
+        String::from_utf8_lossy(&o.stderr).lines().next(),
+        Some(
+            format!(
+                "error: {}: exists and is not a folder: the report is written into a folder (--out)",
+                out.display()
+            )
+            .as_str()
+        )
+    );
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "mine");
     // The bad value's place is its line and column.
     let dir = tempfile::tempdir().unwrap();
     magnitude_fixture(dir.path());

@@ -5,8 +5,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::{
-    DeviceChoice, EXIT_FAILURE, Failure, GuiArgs, IdentifyArgs, LslArgs, PowerArgs, RenderArgs,
-    ResponderChoice, RunArgs, SimulateArgs, UserError, device_failure, emit, say,
+    DeviceChoice, EXIT_BAD_INPUT, EXIT_FAILURE, Failure, GuiArgs, IdentifyArgs, LslArgs, PowerArgs,
+    RenderArgs, ResponderChoice, RunArgs, SimulateArgs, UserError, device_failure, emit, say,
 };
 use crate::friction::Validate;
 use crate::friction::{ForceLimit, ModelParams};
@@ -128,6 +128,17 @@ pub(super) fn analyze_command(
     } else {
         Check::AgainstLogs
     };
+    let out = out.map_or_else(|| dir.join("report"), Path::to_path_buf);
+    // Told before the analysis, which can take minutes, not after it.
+    if out.exists() && !out.is_dir() {
+        return Err(Failure {
+            code: EXIT_BAD_INPUT,
+            errors: vec![UserError::new(
+                out.display().to_string(),
+                "exists and is not a folder: the report is written into a folder (--out)",
+            )],
+        });
+    }
     let analysis = crate::analysis::analyze_with::<Registry>(dir, check).map_err(|mut e| {
         if e.message.starts_with(results::NO_LOG) {
             e.message
@@ -135,7 +146,6 @@ pub(super) fn analyze_command(
         }
         Failure::from(vec![e])
     })?;
-    let out = out.map_or_else(|| dir.join("report"), Path::to_path_buf);
     crate::analysis::write(&analysis, &out).map_err(|(path, message)| Failure {
         code: EXIT_FAILURE,
         errors: vec![UserError::new(path, message)],
