@@ -77,16 +77,22 @@ fn main() -> ! {
                 .as_ref()
                 .map_or(0, |shared| shared.peek_tx(&mut tx))
         });
-        if queued > 0 {
+        let sent = if queued > 0 {
             let sent = serial.write(&tx[..queued]);
             critical_section::with(|cs| {
                 if let Some(shared) = SHARED.borrow_ref_mut(cs).as_mut() {
                     shared.pop_tx(sent);
                 }
             });
-        }
-        if n == 0 && queued < tx.len() {
-            // Nothing more to move: sleep until the next tick or byte.
+            sent
+        } else {
+            0
+        };
+        if n == 0 && (queued < tx.len() || sent == 0) {
+            // Nothing more to move, or the port takes no more for now:
+            // sleep until the next tick or byte. Polling a full port
+            // instead starves QEMU's thread that delivers the host's bytes
+            // (a Hello answered seconds late under load).
             cortex_m::asm::wfi();
         }
     }
