@@ -12,12 +12,18 @@ use frictionlab::device::inverse3::{PROFILE, emulator, messages};
 use haply::device_model::{ServiceData, ServiceState, Vec3D};
 use haply::{ForceInput, HaplyDevice, ServiceMsg};
 
-/// Our emulated service on a free loopback port, in a thread.
+/// Our emulated service on a free loopback port, in a thread, in lockstep
+/// (1 ms of its physics per client message), so what the client reads
+/// follows from what it sent, however fast the machine runs.
 fn service() -> String {
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
     let address = listener.local_addr().unwrap().to_string();
     let track = frictionlab::device::inverse3::Config::default().track;
-    std::thread::spawn(move || emulator::serve(&listener, track, &emulator::Options::default()));
+    let options = emulator::Options {
+        lockstep: true,
+        ..emulator::Options::default()
+    };
+    std::thread::spawn(move || emulator::serve(&listener, track, &options));
     address
 }
 
@@ -55,13 +61,18 @@ async fn the_vendors_haply_device_connects_reads_state_and_sends_forces_to_our_s
         inverse3.state.cursor_position.is_some(),
         "a cursor position"
     );
-    // Hold with no force, then push up (z) with 1.5 N, each for 1 s:
-    // the cursor, held by the emulated hand (200 N/m), rises by
-    // 1.5 / 200 m, and the state reports the force rendered.
+    // Hold with no force, then push up (z) with 1.5 N, each for one
+    // period of the hand's press (2 s of the service's physics, 2000
+    // messages in lockstep): the cursor, held by the emulated hand
+    // (200 N/m), rises by 1.5 / 200 m, and the state reports the force
+    // rendered. Read a whole period apart, the press's swing is the same
+    // at both readings (read 1 s apart, it added up to 4 mm either way,
+    // depending on when the client connected).
+    let (_, _, press_hz) = emulator::HAND_PRESS_M;
+    let period_messages = (1.0 / press_hz / 0.001).round() as u32;
     let mut settle = async |z: f32| {
         let mut rendered = None;
-        let until = tokio::time::Instant::now() + Duration::from_secs(1);
-        while tokio::time::Instant::now() < until {
+        for _ in 0..period_messages {
             let force = Vec3D { x: 0.0, y: 0.0, z };
             let input = ForceInput {
                 device_id: emulator::DEVICE_ID.into(),
@@ -71,7 +82,6 @@ async fn the_vendors_haply_device_connects_reads_state_and_sends_forces_to_our_s
                 .update_force(vec![input], Some(true), Some(true))
                 .await
                 .unwrap();
-            tokio::time::sleep(Duration::from_millis(1)).await;
             let s = device.read_state().await.unwrap();
             rendered = s
                 .inverse3
@@ -79,8 +89,23 @@ async fn the_vendors_haply_device_connects_reads_state_and_sends_forces_to_our_s
                 .and_then(|d| d.state.current_cursor_force)
                 .or(rendered);
         }
-        let s = device.read_state().await.unwrap();
-        (s.inverse3[0].state.cursor_position.unwrap().z, rendered)
+        // The last message's state frame: the service sends nothing
+        // more, and its physics stands still, until the next message, so
+        // the position read stops changing once the client has taken
+        // every frame sent.
+        let z = async || {
+            let s = device.read_state().await.unwrap();
+            s.inverse3[0].state.cursor_position.unwrap().z
+        };
+        let mut last = z().await;
+        loop {
+            tokio::time::sleep(Duration::from_millis(50)).await;
+            let now = z().await;
+            if now == last {
+                break (now, rendered);
+            }
+            last = now;
+        }
     };
     let (z0, _) = settle(0.0).await;
     let (z1, rendered) = settle(1.5).await;
