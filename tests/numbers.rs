@@ -29,67 +29,82 @@ fn no_csv_field_of_any_shipped_protocol_is_longer_than_25_characters_issue_37() 
     let tmp = tempfile::tempdir().unwrap();
     let protocols = common::shipped_protocols();
     assert!(protocols.len() >= 8);
-    for p in &protocols {
-        let name = p.file_stem().unwrap().to_string_lossy().into_owned();
-        let results = tmp.path().join(&name);
-        let run = |args: &[&str]| {
-            let out = Command::new(env!("CARGO_BIN_EXE_frictionlab"))
-                .args(args)
-                .output()
-                .unwrap();
-            assert!(
-                out.status.success(),
-                "{name}: {}",
-                String::from_utf8_lossy(&out.stderr)
-            );
-        };
-        let r = results.to_str().unwrap();
-        run(&[
-            "simulate",
-            p.to_str().unwrap(),
-            "--participants",
-            "1",
-            "--seed",
-            "5",
-            "--streams",
-            "--out",
-            r,
-        ]);
-        let a = tmp.path().join(format!("{name}-analysis"));
-        run(&["analyze", r, "--out", a.to_str().unwrap()]);
-        let mut files = Vec::new();
-        csvs(&results, &mut files);
-        csvs(&a, &mut files);
+    // The protocols are independent: two at a time (each `simulate` of
+    // one participant runs on one thread), on two threads.
+    let left = std::sync::Mutex::new(protocols.iter());
+    let next = || left.lock().unwrap().next();
+    std::thread::scope(|s| {
+        for _ in 0..2 {
+            s.spawn(|| {
+                while let Some(p) = next() {
+                    check_protocol(tmp.path(), p);
+                }
+            });
+        }
+    });
+}
+
+/// Replays and analyses protocol `p` in `tmp`, and checks every CSV field.
+fn check_protocol(tmp: &Path, p: &Path) {
+    let name = p.file_stem().unwrap().to_string_lossy().into_owned();
+    let results = tmp.join(&name);
+    let run = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_frictionlab"))
+            .args(args)
+            .output()
+            .unwrap();
         assert!(
-            files
-                .iter()
-                .any(|f| f.to_string_lossy().contains("streams")),
-            "{name}"
+            out.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&out.stderr)
         );
-        let (mut longest, mut fields) = ((0, String::new()), 0_u64);
-        for f in &files {
-            let text = std::fs::read_to_string(f).unwrap();
-            for line in text.lines().skip(1) {
-                // A list cell (Fitts' tap times) holds `;`-separated
-                // numbers: each is a field here.
-                for field in line.split([',', ';']) {
-                    fields += 1;
-                    if field.len() > longest.0 {
-                        longest = (field.len(), format!("{}: {field}", f.display()));
-                    }
-                    if let Ok(x) = field.parse::<f64>() {
-                        assert!(!x.is_subnormal(), "{}: {field}", f.display());
-                    }
+    };
+    let r = results.to_str().unwrap();
+    run(&[
+        "simulate",
+        p.to_str().unwrap(),
+        "--participants",
+        "1",
+        "--seed",
+        "5",
+        "--streams",
+        "--out",
+        r,
+    ]);
+    let a = tmp.join(format!("{name}-analysis"));
+    run(&["analyze", r, "--out", a.to_str().unwrap()]);
+    let mut files = Vec::new();
+    csvs(&results, &mut files);
+    csvs(&a, &mut files);
+    assert!(
+        files
+            .iter()
+            .any(|f| f.to_string_lossy().contains("streams")),
+        "{name}"
+    );
+    let (mut longest, mut fields) = ((0, String::new()), 0_u64);
+    for f in &files {
+        let text = std::fs::read_to_string(f).unwrap();
+        for line in text.lines().skip(1) {
+            // A list cell (Fitts' tap times) holds `;`-separated
+            // numbers: each is a field here.
+            for field in line.split([',', ';']) {
+                fields += 1;
+                if field.len() > longest.0 {
+                    longest = (field.len(), format!("{}: {field}", f.display()));
+                }
+                if let Ok(x) = field.parse::<f64>() {
+                    assert!(!x.is_subnormal(), "{}: {field}", f.display());
                 }
             }
         }
-        eprintln!(
-            "{name}: {} files, {fields} fields, longest {} ({})",
-            files.len(),
-            longest.0,
-            longest.1
-        );
-        assert!(longest.0 <= 25, "{name}: {}", longest.1);
-        std::fs::remove_dir_all(&results).unwrap();
     }
+    eprintln!(
+        "{name}: {} files, {fields} fields, longest {} ({})",
+        files.len(),
+        longest.0,
+        longest.1
+    );
+    assert!(longest.0 <= 25, "{name}: {}", longest.1);
+    std::fs::remove_dir_all(&results).unwrap();
 }

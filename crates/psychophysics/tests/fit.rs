@@ -720,7 +720,9 @@ fn on_staircase_tracks_the_profile_interval_covers_more_often_than_the_bootstrap
     };
     let t_true = truth.threshold_at(0.75).unwrap();
     let s = spec(Shape::Weibull, 0.06);
-    for down in [2, 3] {
+    // Each rule's tracks draw from their own generator, seeded by `down`:
+    // the two rules run on two threads with the same answers as in turn.
+    let coverage = |down: u32| {
         let rule = StaircaseRule {
             down,
             start: 0.5,
@@ -752,6 +754,14 @@ fn on_staircase_tracks_the_profile_interval_covers_more_often_than_the_bootstrap
         eprintln!(
             "1-up-{down}-down, 80 trials: coverage profile {profile_covered}/{repetitions}, bootstrap {bootstrap_covered}/{repetitions}"
         );
+        (profile_covered, bootstrap_covered)
+    };
+    let (two, three) = std::thread::scope(|t| {
+        let two = t.spawn(|| coverage(2));
+        let three = coverage(3);
+        (two.join().unwrap(), three)
+    });
+    for (down, (profile_covered, bootstrap_covered)) in [(2, two), (3, three)] {
         assert!(
             profile_covered > bootstrap_covered && profile_covered >= 150,
             "1-up-{down}-down: profile {profile_covered}, bootstrap {bootstrap_covered}"
