@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use frictionlab::kinds::discrimination::analysis::fit_track;
+use frictionlab::kinds::discrimination::analysis::fit_track_with;
 use frictionlab::kinds::discrimination::{DiscriminationDesign, Method};
 use frictionlab::kinds::{Design, Protocol, Registry, TrialData};
 use frictionlab::participant::Population;
@@ -392,11 +392,14 @@ fn staircase(down: u32, trials: u32) -> serde_json::Value {
 }
 
 /// The SD across participants of the threshold fitted to each one's first
-/// `n` answers.
+/// `n` answers (the point fits alone: no interval is needed here, and
+/// their bootstraps made this the test's longest part, on one core).
 fn spread(design: &DiscriminationDesign, answers: &[Vec<(f64, bool)>], n: usize) -> f64 {
     let t: Vec<f64> = answers
         .iter()
-        .filter_map(|a| fit_track(design, "p", 1.0, a[..n.min(a.len())].to_vec()).threshold)
+        .filter_map(|a| {
+            fit_track_with(design, "p", 1.0, a[..n.min(a.len())].to_vec(), false).threshold
+        })
         .collect();
     #[expect(clippy::cast_precision_loss, reason = "participant counts")]
     let k = t.len() as f64;
