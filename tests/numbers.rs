@@ -30,17 +30,10 @@ fn no_csv_field_of_any_shipped_protocol_is_longer_than_25_characters_issue_37() 
     let protocols = common::shipped_protocols();
     assert!(protocols.len() >= 8);
     // The protocols are independent: two at a time (each `simulate` of
-    // one participant runs on one thread), on two threads.
-    let left = std::sync::Mutex::new(protocols.iter());
-    let next = || left.lock().unwrap().next();
-    std::thread::scope(|s| {
-        for _ in 0..2 {
-            s.spawn(|| {
-                while let Some(p) = next() {
-                    check_protocol(tmp.path(), p);
-                }
-            });
-        }
+    // one participant runs on one thread), on the project's thread pool.
+    frictionlab::parallel::run(&protocols, 2, |p| {
+        check_protocol(tmp.path(), p);
+        Ok::<(), std::convert::Infallible>(())
     });
 }
 
