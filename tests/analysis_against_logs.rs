@@ -357,7 +357,8 @@ fn rows_from_the_log_or_from_the_csv_give_the_same_statistics() {
 }
 
 #[test]
-fn a_csv_made_from_its_log_places_each_quoted_cell_as_a_csv_reader_reads_it() {
+fn a_csv_made_from_its_log_places_each_quoted_cell_as_a_csv_reader_reads_it_and_is_matched_byte_for_byte()
+ {
     // Displays whose names the CSV must quote (a comma, a quote).
     let protocol = std::fs::read_to_string(format!(
         "{}/protocols/magnitude-quick.json",
@@ -400,6 +401,24 @@ fn a_csv_made_from_its_log_places_each_quoted_cell_as_a_csv_reader_reads_it() {
             assert_eq!(cells.get(made.columns.len()), None);
         }
         assert!(quoted > 0, "no quoted cell to place");
+        // The log check's way to it: each record made in turn and held
+        // against the CSV's text, which it keeps; any other text back.
+        assert_eq!(
+            frictionlab::results::DataText::matching(&log, made.text.clone()).as_ref(),
+            Ok(&made)
+        );
+        let last = made.text.trim_end().rfind('\n').unwrap() + 1;
+        for other in [
+            made.text.replacen("tactile", "tactilE", 1),
+            made.text[..last].to_owned(),
+            format!("{}{}", made.text, &made.text[last..]),
+            made.text.replacen(',', ";", 1),
+        ] {
+            assert_eq!(
+                frictionlab::results::DataText::matching(&log, other.clone()),
+                Err(other)
+            );
+        }
         logs += 1;
     }
     assert_eq!(logs, 2);

@@ -22,68 +22,109 @@ pub fn text(s: &str) -> String {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Num(pub f64);
 
-/// A float's text on the stack (the longest is 24 bytes).
-struct Buf {
-    bytes: [u8; 40],
-    len: usize,
+/// The longest plain form [`Num`] writes, bytes: a longer one (a huge or
+/// tiny number) is written with its exponent, which is then the shorter.
+const PLAIN_MAX: usize = 40;
+
+/// A float's text by `core::fmt` (`{}`, or `{:e}` where the module docs
+/// say): how every CSV float was written before zmij, and still is where
+/// zmij's text may differ ([`Num::with_text`]).
+fn by_core_fmt(x: f64) -> String {
+    let plain = format!("{x}");
+    if plain.len() > PLAIN_MAX {
+        return format!("{x:e}");
+    }
+    // The exponent form can be shorter only with two or more zeros after
+    // the point (0.001) or three at the end of a whole number (1000);
+    // otherwise the plain form is as short or shorter.
+    let digits = plain.trim_start_matches('-');
+    if digits.starts_with("0.00") || digits.ends_with("000") {
+        let exp = format!("{x:e}");
+        if exp.len() < plain.len() {
+            return exp;
+        }
+    }
+    plain
 }
 
-impl Buf {
-    fn of(x: f64, exp: bool) -> Option<Buf> {
-        use std::fmt::Write as _;
-        let mut b = Buf {
-            bytes: [0; 40],
-            len: 0,
-        };
-        let r = if exp {
-            write!(b, "{x:e}")
-        } else {
-            write!(b, "{x}")
-        };
-        r.ok().map(|()| b)
+/// Whether two shortest forms of `x` can be equally near it (a tie, which
+/// zmij breaks to the even digit and `core::fmt` upward: 758641930659884.25
+/// is `…884.2` by one, `…884.3` by the other). Shortest digits are unique
+/// unless `x` is exactly halfway between two of them, which needs its exact
+/// decimal value to have at most 18 significant digits: `x = m 2^e` with `m`
+/// odd, whose exact decimal is `m 5^-e` (e < 0). A whole number (e >= 0)
+/// counts as a possible tie.
+fn may_tie(x: f64) -> bool {
+    let bits = x.to_bits();
+    let biased = i32::try_from((bits >> 52) & 0x7ff).unwrap_or(0);
+    let fraction = bits & ((1 << 52) - 1);
+    let (m, e) = if biased == 0 {
+        (fraction, -1074)
+    } else {
+        (fraction | (1 << 52), biased - 1075)
+    };
+    if m == 0 {
+        return true;
     }
-    fn text(&self) -> &str {
-        std::str::from_utf8(&self.bytes[..self.len]).unwrap_or("")
-    }
+    let zeros = m.trailing_zeros();
+    let (m, e) = (m >> zeros, e + i32::try_from(zeros).unwrap_or(0));
+    let Ok(k) = u32::try_from(-e) else {
+        return true;
+    };
+    POW5.get(k as usize)
+        .is_some_and(|&p| u128::from(m) * u128::from(p) < 10_u128.pow(18))
 }
 
-impl std::fmt::Write for Buf {
-    fn write_str(&mut self, s: &str) -> std::fmt::Result {
-        let end = self.len + s.len();
-        self.bytes
-            .get_mut(self.len..end)
-            .ok_or(std::fmt::Error)?
-            .copy_from_slice(s.as_bytes());
-        self.len = end;
-        Ok(())
+/// `5^k` for the exponents [`may_tie`] asks about.
+const POW5: [u64; 27] = {
+    let mut p = [1_u64; 27];
+    let mut k = 1;
+    while k < 27 {
+        p[k] = p[k - 1] * 5;
+        k += 1;
+    }
+    p
+};
+
+impl Num {
+    /// Hands the number's text (module docs) to `f`. Most floats data
+    /// hold are written as zmij writes them (serde_json's float writer,
+    /// already built; several times faster than `core::fmt`: a data CSV of
+    /// a million trials, and its log check, make millions): its shortest
+    /// digits are `core::fmt`'s but for ties, and its plain notation is
+    /// the same for a number with a fraction. The others (exponents,
+    /// `0.00…`, whole numbers, possible ties, NaN and infinities) are
+    /// written by `core::fmt`, as they always were.
+    pub fn with_text<R>(self, f: impl FnOnce(&str) -> R) -> R {
+        let x = self.0;
+        if x.is_finite() && !may_tie(x) {
+            let mut buffer = zmij::Buffer::new();
+            let text = buffer.format_finite(x);
+            if !text.contains('e') && !text.trim_start_matches('-').starts_with("0.00") {
+                return f(text);
+            }
+        }
+        f(&by_core_fmt(x))
+    }
+
+    /// Appends the number's text to `out`.
+    pub fn write_to(self, out: &mut String) {
+        self.with_text(|t| out.push_str(t));
     }
 }
 
 impl std::fmt::Display for Num {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        // Longer than the buffer (a huge or tiny number): the exponent
-        // form is the shorter.
-        let Some(plain) = Buf::of(self.0, false) else {
-            return write!(f, "{:e}", self.0);
-        };
-        // The exponent form can be shorter only with two or more zeros
-        // after the point (0.001) or three at the end of a whole number
-        // (1000); otherwise the plain form is as short or shorter.
-        let digits = plain.text().trim_start_matches('-');
-        if (digits.starts_with("0.00") || digits.ends_with("000"))
-            && let Some(exp) = Buf::of(self.0, true)
-            && exp.len < plain.len
-        {
-            return f.write_str(exp.text());
-        }
-        f.write_str(plain.text())
+        self.with_text(|t| f.write_str(t))
     }
 }
 
 /// A float as written in every CSV (module docs).
 #[must_use]
 pub fn num(x: f64) -> String {
-    Num(x).to_string()
+    let mut text = String::with_capacity(24);
+    Num(x).write_to(&mut text);
+    text
 }
 
 /// A value, or an empty cell.
@@ -136,5 +177,45 @@ mod tests {
             }
             x *= 7.3;
         }
+    }
+
+    #[test]
+    fn floats_are_written_as_core_fmt_wrote_them() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut xs = vec![
+            758_641_930_659_884.2,
+            0.0,
+            -0.0,
+            f64::MIN_POSITIVE,
+            f64::MAX,
+            f64::MIN,
+            f64::EPSILON,
+            5e-324,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        for e in -325..=309 {
+            let p = 10_f64.powi(e);
+            xs.extend([p, -p, 1.5 * p, 123_456_789.0 * p, p / 3.0]);
+        }
+        for k in 0..200_000_u64 {
+            // Any bit pattern, and the decimals and whole numbers data hold.
+            xs.push(f64::from_bits(rng.random::<u64>()));
+            xs.push(f64::from(rng.random_range(-1_000_000..1_000_000_i32)) / 1000.0);
+            xs.push((k as f64) * 1000.0);
+            xs.push(rng.random_range(0.0..20.0));
+        }
+        let mut fast = 0;
+        for x in xs {
+            assert_eq!(num(x), by_core_fmt(x), "{x:e} ({:#x})", x.to_bits());
+            fast += usize::from(
+                x.is_finite() && !may_tie(x) && !zmij::Buffer::new().format_finite(x).contains('e'),
+            );
+        }
+        // zmij wrote most of them (the others are whole numbers, short
+        // decimals, possible ties and exponents).
+        assert!(fast > 300_000, "{fast}");
     }
 }

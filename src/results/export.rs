@@ -6,6 +6,7 @@ use std::collections::BTreeSet;
 use super::csv::text;
 use super::folder::ResultsDir;
 use super::session_log::{ReadLog, read_header};
+use super::trial::LoggedTrial;
 use super::{ResultsError, replace_file};
 use crate::protocol::kind::Kinds;
 
@@ -57,7 +58,60 @@ impl DataText {
     /// The data CSV of the session of `log`.
     #[must_use]
     pub fn of<K: Kinds>(log: &ReadLog<K>) -> Self {
-        use std::fmt::Write as _;
+        let (mut out, same) = Self::head(log, log.trials.len());
+        for r in &log.trials {
+            out.push_record(&same, r);
+        }
+        out.rows.push(out.starts.len());
+        out.starts.push(out.text.len());
+        out
+    }
+
+    /// The data CSV of the session of `log` if `text` is it byte for
+    /// byte, with `text` as its text (not copied); else `text` back. Each
+    /// record is made in turn and held against the text where it should
+    /// be: the whole CSV is never made a second time.
+    ///
+    /// # Errors
+    /// `text` back, when it is not the log's CSV.
+    pub fn matching<K: Kinds>(log: &ReadLog<K>, text: String) -> Result<Self, String> {
+        let (mut record, same) = Self::head(log, 1);
+        let n = log.trials.len();
+        let mut starts = Vec::with_capacity(n * record.columns.len() + 1);
+        let mut rows = Vec::with_capacity(n + 1);
+        let mut at = record.text.len();
+        if !text.as_bytes().starts_with(record.text.as_bytes()) {
+            return Err(text);
+        }
+        for r in &log.trials {
+            record.text.clear();
+            record.starts.clear();
+            record.rows.clear();
+            record.push_record(&same, r);
+            let end = at + record.text.len();
+            if text.as_bytes().get(at..end) != Some(record.text.as_bytes()) {
+                return Err(text);
+            }
+            rows.push(starts.len());
+            starts.extend(record.starts.iter().map(|s| at + s));
+            at = end;
+        }
+        if at != text.len() {
+            return Err(text);
+        }
+        rows.push(starts.len());
+        starts.push(text.len());
+        Ok(Self {
+            columns: record.columns,
+            text,
+            starts,
+            rows,
+        })
+    }
+
+    /// The CSV's column names, with room for `records` records, and what
+    /// every record of `log` has the same.
+    fn head<K: Kinds>(log: &ReadLog<K>, records: usize) -> (Self, Same) {
         let lsl = log
             .trials
             .iter()
@@ -66,42 +120,50 @@ impl DataText {
         if lsl {
             columns.extend(LSL_COLUMNS);
         }
-        let h = &log.header;
-        let (study, participant) = (text(&h.protocol_id), text(&h.participant));
         let mut out = Self {
-            text: String::with_capacity((log.trials.len() + 1) * 24 * columns.len()),
-            starts: Vec::with_capacity(log.trials.len() * columns.len() + 1),
-            rows: Vec::with_capacity(log.trials.len() + 1),
+            text: String::with_capacity((records + 1) * 24 * columns.len()),
+            starts: Vec::with_capacity(records * columns.len() + 1),
+            rows: Vec::with_capacity(records + 1),
             columns,
         };
         out.text.push_str(&out.columns.join(","));
         out.text.push('\n');
+        let h = &log.header;
+        let same = Same {
+            study: text(&h.protocol_id),
+            kind: h.protocol.kind(),
+            participant: text(&h.participant),
+            session: h.session.to_string(),
+            seed: h.plan_seed.to_string(),
+            lsl,
+        };
+        (out, same)
+    }
+
+    /// Writes the CSV record of trial `r` of the session of `same`.
+    fn push_record<K: Kinds>(&mut self, same: &Same, r: &LoggedTrial<K>) {
+        use std::fmt::Write as _;
+        self.rows.push(self.starts.len());
+        self.cell().push_str(&same.study);
+        self.cell().push_str(same.kind);
+        self.cell().push_str(&same.participant);
+        self.cell().push_str(&same.session);
         // `write!` to a String cannot fail.
-        for r in &log.trials {
-            out.rows.push(out.starts.len());
-            let kind = h.protocol.kind();
-            let _ = write!(out.cell(), "{study}");
-            let _ = write!(out.cell(), "{kind}");
-            let _ = write!(out.cell(), "{participant}");
-            let _ = write!(out.cell(), "{}", h.session);
-            let _ = write!(out.cell(), "{}", r.trial);
-            let _ = write!(out.cell(), "{}", text(&r.block));
-            let _ = write!(out.cell(), "{}", r.status.as_str());
-            let _ = write!(out.cell(), "{}", h.plan_seed);
-            let _ = write!(out.cell(), "{}", r.practice);
-            let _ = write!(out.cell(), "{}", r.repetition);
-            for c in K::row(&r.data) {
-                out.cell().push_str(&c);
-            }
-            if lsl {
-                out.cell().push_str(&super::csv::opt_num(r.lsl_start_s));
-                out.cell().push_str(&super::csv::opt_num(r.lsl_end_s));
-            }
-            out.text.push('\n');
+        let _ = write!(self.cell(), "{}", r.trial);
+        self.cell().push_str(&text(&r.block));
+        self.cell().push_str(r.status.as_str());
+        self.cell().push_str(&same.seed);
+        self.cell()
+            .push_str(if r.practice { "true" } else { "false" });
+        let _ = write!(self.cell(), "{}", r.repetition);
+        for c in K::row(&r.data) {
+            self.cell().push_str(&c);
         }
-        out.rows.push(out.starts.len());
-        out.starts.push(out.text.len());
-        out
+        if same.lsl {
+            self.cell().push_str(&super::csv::opt_num(r.lsl_start_s));
+            self.cell().push_str(&super::csv::opt_num(r.lsl_end_s));
+        }
+        self.text.push('\n');
     }
 
     /// Starts a cell (after its separator, once the text is written) and
@@ -122,6 +184,17 @@ impl DataText {
             starts: &self.starts[w[0]..=w[1]],
         })
     }
+}
+
+/// The cells every record of a session's CSV has the same, as written.
+struct Same {
+    study: String,
+    kind: &'static str,
+    participant: String,
+    session: String,
+    seed: String,
+    /// The CSV has the LSL columns.
+    lsl: bool,
 }
 
 /// One record's cells in a [`DataText`].

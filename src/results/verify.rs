@@ -231,7 +231,7 @@ fn check_file<K: Kinds, T>(
     }
     let text = std::fs::read_to_string(csv)
         .map_err(|e| at(csv.display().to_string(), format!("cannot read: {e}")))?;
-    let taken = compare(csv, &log, &text, &read, &lines, take)?;
+    let taken = compare(csv, &log, text, &read, &lines, take)?;
     Ok((Some((read.header, taken)), notice))
 }
 
@@ -292,17 +292,18 @@ fn alike(a: &str, b: &str) -> bool {
 fn compare<K: Kinds, T>(
     csv: &Path,
     log: &Path,
-    text: &str,
+    text: String,
     read: &ReadLog<K>,
     lines: &[usize],
     take: &(impl Fn(&Path, Source<'_, K>) -> T + Sync),
 ) -> Result<T, Problem> {
-    let made = DataText::of(read);
     // The CSV as its session wrote it, byte for byte: nothing to tell.
-    if made.text == text {
-        return Ok(take(csv, Source::Log { read, made: &made }));
-    }
-    let made = made.text;
+    let text = match DataText::matching(read, text) {
+        Ok(made) => return Ok(take(csv, Source::Log { read, made: &made })),
+        Err(text) => text,
+    };
+    let text = text.as_str();
+    let made = DataText::of(read).text;
     let unreadable = |e: super::reader::ReadError| {
         Problem::new(format!("{}: {}:1", csv.display(), e.line), e.message)
     };
