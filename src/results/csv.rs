@@ -75,6 +75,16 @@ fn may_tie(x: f64) -> bool {
         .is_some_and(|&p| u128::from(m) * u128::from(p) < 10_u128.pow(18))
 }
 
+/// zmij's text of `x` where it is `core::fmt`'s ([`Num::with_text`]): a
+/// finite number that cannot tie, in plain notation, not `0.00…`.
+fn by_zmij(x: f64, buffer: &mut zmij::Buffer) -> Option<&str> {
+    if !x.is_finite() || may_tie(x) {
+        return None;
+    }
+    let text = buffer.format_finite(x);
+    (!text.contains('e') && !text.trim_start_matches('-').starts_with("0.00")).then_some(text)
+}
+
 /// `5^k` for the exponents [`may_tie`] asks about.
 const POW5: [u64; 27] = {
     let mut p = [1_u64; 27];
@@ -96,15 +106,11 @@ impl Num {
     /// `0.00…`, whole numbers, possible ties, NaN and infinities) are
     /// written by `core::fmt`, as they always were.
     pub fn with_text<R>(self, f: impl FnOnce(&str) -> R) -> R {
-        let x = self.0;
-        if x.is_finite() && !may_tie(x) {
-            let mut buffer = zmij::Buffer::new();
-            let text = buffer.format_finite(x);
-            if !text.contains('e') && !text.trim_start_matches('-').starts_with("0.00") {
-                return f(text);
-            }
+        let mut buffer = zmij::Buffer::new();
+        match by_zmij(self.0, &mut buffer) {
+            Some(text) => f(text),
+            None => f(&by_core_fmt(self.0)),
         }
-        f(&by_core_fmt(x))
     }
 
     /// Appends the number's text to `out`.
@@ -210,12 +216,10 @@ mod tests {
         let mut fast = 0;
         for x in xs {
             assert_eq!(num(x), by_core_fmt(x), "{x:e} ({:#x})", x.to_bits());
-            fast += usize::from(
-                x.is_finite() && !may_tie(x) && !zmij::Buffer::new().format_finite(x).contains('e'),
-            );
+            fast += usize::from(by_zmij(x, &mut zmij::Buffer::new()).is_some());
         }
         // zmij wrote most of them (the others are whole numbers, short
-        // decimals, possible ties and exponents).
+        // decimals, possible ties, exponents and 0.00…).
         assert!(fast > 300_000, "{fast}");
     }
 }
