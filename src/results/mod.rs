@@ -24,6 +24,7 @@
 //! `atomic.rs` (the one atomic file write).
 
 mod atomic;
+mod compact;
 pub mod csv;
 mod export;
 mod folder;
