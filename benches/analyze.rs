@@ -7,6 +7,10 @@
 //! log first (issue 31); `magnitude-1M-trials-csv-only` is the same folder
 //! analysed CSV-only, for the cost of that check.
 //!
+//! `cargo test` runs this bench once as a test (criterion's test mode,
+//! without cargo bench's `--bench`), on a debug build: there the folder
+//! has 10 sessions (10,000 trials), enough to run every step once.
+//!
 //! The time is criterion's median of the library call. With
 //! `FRICTIONLAB_BENCH_KEEP=DIR` the folder is also copied to `DIR`, for the
 //! independent peer `analysis/peers/pandas_magnitude.py` to read. The memory is the
@@ -27,9 +31,10 @@ use frictionlab::results::{LOG_FORMAT, ResultsDir, data_csv};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-/// Writes each session's log and its data CSV (made from the log, as a
-/// session does); a file that cannot be written stops the bench.
-fn generate(dir: &Path) {
+/// Writes each of `participants` sessions' log and its data CSV (made
+/// from the log, as a session does); a file that cannot be written stops
+/// the bench.
+fn generate(dir: &Path, participants: u32) {
     let text = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/protocols/magnitude-estimation.json"
@@ -44,7 +49,7 @@ fn generate(dir: &Path) {
         std::fs::create_dir_all(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     }
     let mut rng = ChaCha8Rng::seed_from_u64(1);
-    for p in 0..1000_u32 {
+    for p in 0..participants {
         let header = Header {
             format: LOG_FORMAT.into(),
             software_version: env!("CARGO_PKG_VERSION").into(),
@@ -120,8 +125,10 @@ fn generate(dir: &Path) {
 }
 
 fn million(c: &mut Criterion) {
+    // Measured (`cargo bench`), or run once as a test (module docs).
+    let measured = std::env::args().any(|a| a == "--bench");
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("cannot create a folder: {e}"));
-    generate(dir.path());
+    generate(dir.path(), if measured { 1000 } else { 10 });
     // The folder kept for a peer to read (analysis/peers/pandas_magnitude.py).
     if let Some(keep) = std::env::var_os("FRICTIONLAB_BENCH_KEEP") {
         let keep = Path::new(&keep);
@@ -154,7 +161,8 @@ fn million(c: &mut Criterion) {
         String::from_utf8_lossy(&o.stderr).trim()
     );
     eprintln!(
-        "frictionlab analyze (1,000,000 trials): {}",
+        "frictionlab analyze ({} trials): {}",
+        if measured { "1,000,000" } else { "10,000" },
         String::from_utf8_lossy(&o.stdout).trim()
     );
     let mut group = c.benchmark_group("analyze");

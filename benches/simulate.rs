@@ -6,6 +6,10 @@
 //! (`jobs-1`), and one per core (`jobs-all`, as `simulate` does by default).
 //! And `protocols/fitts-quick.json` with 10 participants, one session at a
 //! time: the Fitts movements' planner (issue 44) runs there.
+//!
+//! `cargo test` runs this bench once as a test (criterion's test mode,
+//! without cargo bench's `--bench`), on a debug build: there each study
+//! has 1 participant, enough to run every step once.
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -14,6 +18,15 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use frictionlab::protocol::load::parse;
 use frictionlab::results::ResultsDir;
 use frictionlab::session::{Simulation, simulate_participants};
+
+/// Participants in each study: 10, or 1 when run as a test (module docs).
+fn participants() -> u32 {
+    if std::env::args().any(|a| a == "--bench") {
+        10
+    } else {
+        1
+    }
+}
 
 /// Runs the study into a fresh folder under `root`; returns simulated
 /// seconds. A run that fails stops the bench with its error.
@@ -29,7 +42,7 @@ fn study(text: &str, root: &std::path::Path, jobs: usize) -> f64 {
         &Simulation {
             protocol: &protocol,
             protocol_bytes: text.as_bytes(),
-            participants: 10,
+            participants: participants(),
             seed: 1,
             pace: None,
             streams: false,
