@@ -204,9 +204,10 @@ enum Command {
         #[arg(long)]
         no_device: bool,
         /// haply2diy, inverse3: advance the physics 1 ms (one host period)
-        /// per torque frame or client message instead of in real time (two
-        /// hosts that send the same bytes read the same angles back, and a
-        /// host the machine stalls stalls the device with it).
+        /// per torque frame or client message (those that arrive together
+        /// count once) instead of in real time: two hosts that send the
+        /// same bytes read the same angles back, and a host or emulator the
+        /// machine stalls stalls the physics with it.
         #[arg(long)]
         lockstep: bool,
         /// haply2diy: append every frame the board takes and every reply,

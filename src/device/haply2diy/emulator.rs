@@ -54,6 +54,9 @@ pub const TRACK_RANGE_M: f64 = 0.08;
 
 /// Physics step of the emulator, s.
 pub const STEP_S: f64 = 0.0005;
+/// Physics steps per host period in lockstep ([`Clock::Lockstep`]): 1 ms,
+/// the host loop's period ([`super::RATE_HZ`]).
+const LOCKSTEP_STEPS: u32 = 2;
 
 /// What the host set up (the firmware's tables after a type 1 frame).
 #[derive(Debug, Clone, Default)]
@@ -387,8 +390,11 @@ fn signed_across(track: &Track, offset: [f64; 3]) -> f64 {
 pub enum Clock {
     /// In real time, in steps of [`STEP_S`].
     Real,
-    /// One millisecond per torque frame, whatever the time (so two hosts
-    /// that send the same bytes read the same angles back).
+    /// One millisecond per read that brings torque frames (one frame, for
+    /// a host that waits for each reply), whatever the time: two hosts
+    /// that send the same bytes read the same angles back, and a host
+    /// that sends on at its rate while the emulator is not scheduled has
+    /// the physics wait for it, as it waits while the host stalls.
     Lockstep,
 }
 
@@ -409,6 +415,8 @@ pub fn serve(
     let mut reply = Vec::with_capacity(512);
     let start = Instant::now();
     let mut steps = 0_u64;
+    // Whether the bytes read since the last step brought a torque frame.
+    let mut torque_frames = false;
     loop {
         let n = match port.read(&mut input) {
             Ok(n) => n,
@@ -419,10 +427,9 @@ pub fn serve(
             core.drive(d);
         }
         reply.clear();
-        let mut frames = 0_u32;
         core.receive(&input[..n], &mut reply, &mut |from_host, bytes| {
             if from_host && bytes.first() == Some(&2) {
-                frames += 1;
+                torque_frames = true;
             }
             log(from_host, bytes);
         });
@@ -433,14 +440,23 @@ pub fn serve(
                 Err(e) => return Err(e),
             }
         }
+        if n == input.len() {
+            continue; // more waiting: read it before time moves on
+        }
         match clock {
-            Clock::Lockstep => {
-                for _ in 0..frames {
-                    for _ in 0..2 {
-                        core.step(STEP_S);
-                    }
+            Clock::Lockstep if torque_frames => {
+                // One host period per batch of reads that brought torque
+                // frames, however many: frames that arrived together were sent
+                // without news of the board between them (the emulator
+                // was not running), so physics waits for the emulator as
+                // it waits for the host, and the loop's delay in physics
+                // time is at most two periods whatever the scheduling.
+                for _ in 0..LOCKSTEP_STEPS {
+                    core.step(STEP_S);
                 }
+                torque_frames = false;
             }
+            Clock::Lockstep => {}
             Clock::Real => {
                 #[expect(
                     clippy::cast_possible_truncation,
