@@ -21,7 +21,8 @@ fn rerender(stream: &Path) -> Output {
 }
 
 /// The first stream of a magnitude-quick session run on the simulated
-/// device into `out`.
+/// device into `out`, 1000 times faster than real time (the simulated
+/// device's files are the same at any pace).
 fn a_recorded_stream(out: &Path) -> PathBuf {
     let protocol = format!(
         "{}/protocols/magnitude-quick.json",
@@ -30,7 +31,7 @@ fn a_recorded_stream(out: &Path) -> PathBuf {
     let o = bin()
         .args(["run", &protocol, "--participant", "p", "--out"])
         .arg(out)
-        .args(["--responder", "sim", "--seed", "3"])
+        .args(["--responder", "sim", "--seed", "3", "--pace", "1000"])
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
