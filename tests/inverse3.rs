@@ -92,12 +92,8 @@ fn largest_offsets(out: &Path) -> ([f64; 2], usize) {
 /// simulated participant: killed with SIGKILL after two trials, resumed,
 /// every trial completed exactly once, the hand within 1 mm of the track on
 /// both held axes in every row, and the service's filters in the header.
-/// The service runs in lockstep (1 ms of physics per message, messages
-/// that arrive together counting once): the rule is the loop's wall law at
-/// its rate, not the machine's scheduling. With 1 ms per message, the
-/// service stopped for 30 ms every 200 ms let the host's messages pile up
-/// on a stale position, and the hand left the track by 1.09 mm; now
-/// 0.32 mm (0.32 mm with 100 ms stops). In real
+/// The service runs in lockstep (1 ms of physics per message): the rule is
+/// the loop's wall law at its rate, not the machine's scheduling. In real
 /// time, a host stalled past the service's 50 ms command lifetime lets the
 /// force lapse, as the real service does, and the hand drops (37 mm seen
 /// under load).

@@ -204,10 +204,11 @@ enum Command {
         #[arg(long)]
         no_device: bool,
         /// haply2diy, inverse3: advance the physics 1 ms (one host period)
-        /// per torque frame or client message (those that arrive together
-        /// count once) instead of in real time: two hosts that send the
-        /// same bytes read the same angles back, and a host or emulator the
-        /// machine stalls stalls the physics with it.
+        /// per torque frame or client message instead of in real time (two
+        /// hosts that send the same bytes read the same angles back, and a
+        /// host the machine stalls stalls the device with it); haply2diy:
+        /// frames that arrive together count once, so an emulator the
+        /// machine stalls stalls the physics too.
         #[arg(long)]
         lockstep: bool,
         /// haply2diy: append every frame the board takes and every reply,

@@ -225,10 +225,9 @@ pub struct Options {
     /// Whether it lists an Inverse3 (false: an inventory with none).
     pub with_device: bool,
     /// Advances the physics one host period (1 ms) per client
-    /// message (messages that arrive together count once) instead of in
-    /// real time: a host or emulator the machine stalls stalls the
-    /// physics with it, so what a client reads follows from what it sent,
-    /// whatever the load.
+    /// message instead of in real time: a host the machine stalls stalls
+    /// the device with it, so what a client reads follows from what it
+    /// sent, whatever the load.
     pub lockstep: bool,
 }
 
@@ -299,80 +298,30 @@ fn client(
     };
     ws.send(tungstenite::Message::text(frame(true)))
         .map_err(std::io::Error::other)?;
-    let mut messages = Vec::new();
     loop {
-        // The next message, and in lockstep every other one already here.
-        messages.clear();
-        match next_message(&mut ws)? {
-            Some(m) => messages.push(m),
-            None => return Ok(()),
-        }
-        if options.lockstep {
-            ws.get_mut().set_nonblocking(true)?;
-            let more = drain(&mut ws, &mut messages);
-            ws.get_mut().set_nonblocking(false)?;
-            if !more? {
-                return Ok(());
-            }
-        }
+        let m = ws.read().map_err(std::io::Error::other)?;
+        let text = match m {
+            tungstenite::Message::Text(t) => t.to_string(),
+            tungstenite::Message::Close(_) => return Ok(()),
+            _ => continue,
+        };
+        let message: ClientMessage = serde_json::from_str(&text).unwrap_or_default();
         {
             let mut p = plant
                 .lock()
                 .unwrap_or_else(std::sync::PoisonError::into_inner);
             if options.lockstep {
-                // One host period for messages that arrived together:
-                // the host sent them without news of the device between
-                // them (the emulator was not running), so physics waits
-                // for the emulator as it waits for the host.
                 p.advance_lockstep();
             } else {
                 p.advance(start.elapsed().as_secs_f64());
             }
             if options.with_device {
-                for m in &messages {
-                    p.apply(m);
-                }
+                p.apply(&message);
             }
         }
-        for m in &messages {
-            let full = m.session.force_render_full_state.is_some();
-            ws.send(tungstenite::Message::text(frame(full)))
-                .map_err(std::io::Error::other)?;
-        }
-    }
-}
-
-/// The next client message (unreadable text is an empty one), or `None`
-/// at a close.
-fn next_message(
-    ws: &mut tungstenite::WebSocket<TcpStream>,
-) -> std::io::Result<Option<ClientMessage>> {
-    loop {
-        match ws.read() {
-            Ok(tungstenite::Message::Text(t)) => {
-                return Ok(Some(serde_json::from_str(t.as_str()).unwrap_or_default()));
-            }
-            Ok(tungstenite::Message::Close(_)) => return Ok(None),
-            Ok(_) => {}
-            Err(tungstenite::Error::Io(e)) => return Err(e),
-            Err(e) => return Err(std::io::Error::other(e)),
-        }
-    }
-}
-
-/// Adds to `messages` every message already received (the socket
-/// non-blocking); false at a close.
-fn drain(
-    ws: &mut tungstenite::WebSocket<TcpStream>,
-    messages: &mut Vec<ClientMessage>,
-) -> std::io::Result<bool> {
-    loop {
-        match next_message(ws) {
-            Ok(Some(m)) => messages.push(m),
-            Ok(None) => return Ok(false),
-            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => return Ok(true),
-            Err(e) => return Err(e),
-        }
+        let full = message.session.force_render_full_state.is_some();
+        ws.send(tungstenite::Message::text(frame(full)))
+            .map_err(std::io::Error::other)?;
     }
 }
 
