@@ -390,8 +390,9 @@ fn signed_across(track: &Track, offset: [f64; 3]) -> f64 {
 pub enum Clock {
     /// In real time, in steps of [`STEP_S`].
     Real,
-    /// One millisecond per read that brings torque frames (one frame, for
-    /// a host that waits for each reply), whatever the time: two hosts
+    /// One millisecond per batch of torque frames read together (one
+    /// frame, for a host that waits for each reply), whatever the time:
+    /// two hosts
     /// that send the same bytes read the same angles back, and a host
     /// that sends on at its rate while the emulator is not scheduled has
     /// the physics wait for it, as it waits while the host stalls.
@@ -415,7 +416,8 @@ pub fn serve(
     let mut reply = Vec::with_capacity(512);
     let start = Instant::now();
     let mut steps = 0_u64;
-    // Whether the bytes read since the last step brought a torque frame.
+    // Whether the bytes read since time last moved on brought a torque
+    // frame.
     let mut torque_frames = false;
     loop {
         let n = match port.read(&mut input) {
@@ -444,17 +446,16 @@ pub fn serve(
             continue; // more waiting: read it before time moves on
         }
         match clock {
+            // One host period per batch of reads that brought torque
+            // frames, however many: frames that arrived together were sent
+            // without news of the board between them (the emulator was not
+            // running), so physics waits for the emulator as it waits for
+            // the host, and the loop's delay in physics time is at most two
+            // periods whatever the scheduling.
             Clock::Lockstep if torque_frames => {
-                // One host period per batch of reads that brought torque
-                // frames, however many: frames that arrived together were sent
-                // without news of the board between them (the emulator
-                // was not running), so physics waits for the emulator as
-                // it waits for the host, and the loop's delay in physics
-                // time is at most two periods whatever the scheduling.
                 for _ in 0..LOCKSTEP_STEPS {
                     core.step(STEP_S);
                 }
-                torque_frames = false;
             }
             Clock::Lockstep => {}
             Clock::Real => {
@@ -475,6 +476,7 @@ pub fn serve(
                 }
             }
         }
+        torque_frames = false;
     }
 }
 
