@@ -16,7 +16,7 @@
     reason = "a failed unwrap is a failed test"
 )]
 
-mod common;
+use crate::common;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};

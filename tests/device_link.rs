@@ -7,8 +7,8 @@
     reason = "a failed unwrap is a failed test"
 )]
 
+use crate::common;
 use std::io::{Read, Write};
-mod common;
 
 use std::path::Path;
 use std::sync::Mutex;

@@ -8,7 +8,7 @@
     reason = "a failed unwrap is a failed test"
 )]
 
-mod common;
+use crate::common;
 
 use common::{drive, model, wiggle};
 use frictionlab::friction::{ForceLimit, Friction, Input, ModelParams, Phase, Validate};

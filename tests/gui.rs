@@ -8,7 +8,7 @@
     reason = "tests: a panic is a failure"
 )]
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::Command as Process;

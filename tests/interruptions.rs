@@ -16,8 +16,6 @@
     reason = "a failed unwrap is a failed test"
 )]
 
-mod common;
-
 use std::os::unix::process::ExitStatusExt;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};

@@ -8,7 +8,7 @@
 //! import from a lower layer to a higher one, and on any circle between
 //! units.
 //!
-//! `cargo test --test layers -- --nocapture` prints the counts. Set
+//! `cargo test --test suite layers:: -- --nocapture` prints the counts. Set
 //! `FRICTIONLAB_LAYERS_ROOT` to another checkout's root to measure it (the
 //! counts of an older tree, say); the assertions then apply to it too.
 

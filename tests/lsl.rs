@@ -11,7 +11,7 @@
     reason = "a failed unwrap is a failed test"
 )]
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::{Child, Command, Output, Stdio};

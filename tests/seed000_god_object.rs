@@ -7,7 +7,7 @@
     reason = "a failed unwrap is a failed test"
 )]
 
-mod common;
+use crate::common;
 
 use common::{model, onsets, peak_to_peak, render};
 use frictionlab::friction::{StaticFrictionLaw, TimeVaryingStatic};

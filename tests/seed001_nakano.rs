@@ -8,7 +8,7 @@
     reason = "a failed unwrap is a failed test"
 )]
 
-mod common;
+use crate::common;
 
 use common::{model, onsets, render};
 use frictionlab::friction::{Float, ForceLimit, Input, Nakano, NakanoDisplay, NakanoParams, Phase};

@@ -7,7 +7,7 @@
     reason = "a failed unwrap is a failed test"
 )]
 
-mod common;
+use crate::common;
 
 use common::drive;
 use frictionlab::friction::{DahlParams, Float, Input, ModelParams};

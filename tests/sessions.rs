@@ -11,7 +11,7 @@
     reason = "index and rounding arithmetic on small, known, non-negative test values"
 )]
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};

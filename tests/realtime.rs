@@ -1,0 +1,17 @@
+//! The integration tests against real clocks: devices and their emulators,
+//! QEMU, LSL, real windows, Slurm, and signals to live sessions. They
+//! share the machine only with each other, two at a time (Cargo.toml says
+//! why the tests are four binaries). `cargo test --test realtime lsl::`
+//! runs one file's tests.
+#[macro_use]
+mod common;
+
+mod device_link;
+mod device_session;
+mod firmware_qemu;
+mod gui;
+mod haply2diy;
+mod inverse3;
+mod lsl;
+mod one_process;
+mod slurm;
