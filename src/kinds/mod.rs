@@ -231,7 +231,7 @@ macro_rules! kinds {
             /// The data-CSV cells, one per column of its kind.
             #[must_use]
             pub fn row(&self) -> Vec<String> {
-                Registry::row(self)
+                crate::results::csv::cells(|out| Registry::row(self, out))
             }
         }
 
@@ -361,9 +361,9 @@ macro_rules! kinds {
                 }
             }
 
-            fn row(data: &TrialData) -> Vec<String> {
+            fn row<W: crate::protocol::kind::WriteCells>(data: &TrialData, out: &mut W) {
                 match data {
-                    $($(#[cfg($cfg)])? TrialData::$variant(d) => <$module::$kind as StudyKind>::row(d),)*
+                    $($(#[cfg($cfg)])? TrialData::$variant(d) => <$module::$kind as StudyKind>::row(d, out),)*
                 }
             }
 

@@ -128,8 +128,9 @@ pub trait Kinds: Debug + Clone + Copy + PartialEq + Send + Sync + 'static {
 
     /// The kind of logged data.
     fn data_kind(data: &Self::Data) -> &'static str;
-    /// The data-CSV cells of logged data, one per column of its kind.
-    fn row(data: &Self::Data) -> Vec<String>;
+    /// Writes the data-CSV cells of logged data to `out`, one per column
+    /// of its kind.
+    fn row<W: WriteCells>(data: &Self::Data, out: &mut W);
 
     /// Starts `trial` at `now`, pushing what the shell must do.
     fn start(trial: &Self::Trial, now: Time, out: &mut VecDeque<Action<Self>>) -> Self::Live;
@@ -282,8 +283,31 @@ pub trait StudyKind: Sized + 'static {
     fn start<K: Kinds>(trial: &Self::Trial, now: Time, out: &mut VecDeque<Action<K>>)
     -> Self::Live;
 
-    /// The data-CSV cells of `data`, one per [`StudyKind::COLUMNS`] entry.
-    fn row(data: &Self::Data) -> Vec<String>;
+    /// Writes the data-CSV cells of `data` to `out`, one per
+    /// [`StudyKind::COLUMNS`] entry.
+    fn row<W: WriteCells>(data: &Self::Data, out: &mut W);
+}
+
+/// Where a kind's [`StudyKind::row`] writes a record's data-CSV cells, one
+/// call a cell, in column order. The results layer writes them as text
+/// (`results::csv::Row`: quoted, and numbers written, as in every CSV)
+/// straight into the CSV's text: no string per cell.
+pub trait WriteCells {
+    /// Text (quoted where it must be).
+    fn text(&mut self, s: &str);
+    /// A name as it is (no `,`, `"` or line break in it), or an empty
+    /// cell.
+    fn opt_text(&mut self, s: Option<&str>);
+    /// A float.
+    fn num(&mut self, x: f64);
+    /// A float, or an empty cell.
+    fn opt_num(&mut self, x: Option<f64>);
+    /// A whole number.
+    fn whole(&mut self, n: u64);
+    /// Floats, `;`-separated.
+    fn list(&mut self, xs: &[f64]);
+    /// Yes/no values, `;`-separated (`true;false`).
+    fn flags(&mut self, xs: &[bool]);
 }
 
 /// One adaptive track's answers so far, for the experimenter's live plot

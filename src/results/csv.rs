@@ -10,13 +10,20 @@
 /// Text, quoted if it holds `,`, `"` or a line break.
 #[must_use]
 pub fn text(s: &str) -> String {
-    // Bytes, not chars: this runs for every text cell of every CSV.
-    if s.bytes().any(|b| matches!(b, b',' | b'"' | b'\n' | b'\r')) {
+    if needs_quotes(s) {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {
         s.to_owned()
     }
 }
+
+/// Whether a text cell is quoted: it holds `,`, `"` or a line break.
+fn needs_quotes(s: &str) -> bool {
+    // Bytes, not chars: this runs for every text cell of every CSV.
+    s.bytes().any(|b| matches!(b, b',' | b'"' | b'\n' | b'\r'))
+}
+
+use crate::protocol::kind::WriteCells;
 
 /// A float as written in every CSV (module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -149,6 +156,103 @@ pub fn opt_num(x: Option<f64>) -> String {
 #[must_use]
 pub fn list(xs: &[f64]) -> String {
     xs.iter().map(|&x| num(x)).collect::<Vec<_>>().join(";")
+}
+
+/// A record's cells as a kind's `row` writes them
+/// ([`crate::protocol::kind::WriteCells`]): end to end into one text, each
+/// after a `,` but for a record's first, with where each starts. A
+/// million records are written without a string per cell.
+#[derive(Debug)]
+pub struct Row<'a> {
+    text: &'a mut String,
+    starts: &'a mut Vec<usize>,
+    /// A cell of the record is already written: the next goes after a `,`.
+    after: bool,
+}
+
+impl<'a> Row<'a> {
+    /// Cells written to `text`, each cell's start pushed to `starts`;
+    /// `after`: the record has cells before these.
+    pub fn new(text: &'a mut String, starts: &'a mut Vec<usize>, after: bool) -> Row<'a> {
+        Row {
+            text,
+            starts,
+            after,
+        }
+    }
+
+    /// Starts a cell (its separator, its start) and returns the text to
+    /// write it to.
+    pub fn cell(&mut self) -> &mut String {
+        if self.after {
+            self.text.push(',');
+        }
+        self.after = true;
+        self.starts.push(self.text.len());
+        self.text
+    }
+
+    /// `;`-separated items, each written by `write`.
+    fn joined<T>(&mut self, xs: &[T], write: impl Fn(&T, &mut String)) {
+        let out = self.cell();
+        for (i, x) in xs.iter().enumerate() {
+            if i > 0 {
+                out.push(';');
+            }
+            write(x, out);
+        }
+    }
+}
+
+impl WriteCells for Row<'_> {
+    fn text(&mut self, s: &str) {
+        let out = self.cell();
+        if needs_quotes(s) {
+            out.push('"');
+            out.push_str(&s.replace('"', "\"\""));
+            out.push('"');
+        } else {
+            out.push_str(s);
+        }
+    }
+
+    fn opt_text(&mut self, s: Option<&str>) {
+        self.cell().push_str(s.unwrap_or_default());
+    }
+
+    fn num(&mut self, x: f64) {
+        Num(x).write_to(self.cell());
+    }
+
+    fn opt_num(&mut self, x: Option<f64>) {
+        let out = self.cell();
+        if let Some(x) = x {
+            Num(x).write_to(out);
+        }
+    }
+
+    fn whole(&mut self, n: u64) {
+        self.cell().push_str(itoa::Buffer::new().format(n));
+    }
+
+    fn list(&mut self, xs: &[f64]) {
+        self.joined(xs, |&x, out| Num(x).write_to(out));
+    }
+
+    fn flags(&mut self, xs: &[bool]) {
+        self.joined(xs, |&x, out| out.push_str(if x { "true" } else { "false" }));
+    }
+}
+
+/// The cells `write` writes to a [`Row`] of their own.
+pub fn cells(write: impl FnOnce(&mut Row<'_>)) -> Vec<String> {
+    let (mut text, mut starts) = (String::new(), Vec::new());
+    write(&mut Row::new(&mut text, &mut starts, false));
+    starts.push(text.len() + 1);
+    starts
+        .windows(2)
+        .map(|w| text.get(w[0]..w[1] - 1).unwrap_or_default().to_owned())
+        .collect()
 }
 
 #[cfg(test)]

@@ -3,12 +3,13 @@
 
 use std::collections::BTreeSet;
 
-use super::csv::text;
+use super::csv::{Row, text};
 use super::folder::ResultsDir;
 use super::session_log::{ReadLog, read_header};
 use super::trial::LoggedTrial;
 use super::{ResultsError, replace_file};
 use crate::protocol::kind::Kinds;
+use crate::protocol::kind::WriteCells as _;
 
 /// The data CSV columns every kind has.
 pub const COMMON_COLUMNS: [&str; 10] = [
@@ -142,38 +143,25 @@ impl DataText {
 
     /// Writes the CSV record of trial `r` of the session of `same`.
     fn push_record<K: Kinds>(&mut self, same: &Same, r: &LoggedTrial<K>) {
-        use std::fmt::Write as _;
         self.rows.push(self.starts.len());
-        self.cell().push_str(&same.study);
-        self.cell().push_str(same.kind);
-        self.cell().push_str(&same.participant);
-        self.cell().push_str(&same.session);
-        // `write!` to a String cannot fail.
-        let _ = write!(self.cell(), "{}", r.trial);
-        self.cell().push_str(&text(&r.block));
-        self.cell().push_str(r.status.as_str());
-        self.cell().push_str(&same.seed);
-        self.cell()
+        let mut out = Row::new(&mut self.text, &mut self.starts, false);
+        out.cell().push_str(&same.study);
+        out.cell().push_str(same.kind);
+        out.cell().push_str(&same.participant);
+        out.cell().push_str(&same.session);
+        out.whole(r.trial as u64);
+        out.text(&r.block);
+        out.cell().push_str(r.status.as_str());
+        out.cell().push_str(&same.seed);
+        out.cell()
             .push_str(if r.practice { "true" } else { "false" });
-        let _ = write!(self.cell(), "{}", r.repetition);
-        for c in K::row(&r.data) {
-            self.cell().push_str(&c);
-        }
+        out.whole(u64::from(r.repetition));
+        K::row(&r.data, &mut out);
         if same.lsl {
-            self.cell().push_str(&super::csv::opt_num(r.lsl_start_s));
-            self.cell().push_str(&super::csv::opt_num(r.lsl_end_s));
+            out.opt_num(r.lsl_start_s);
+            out.opt_num(r.lsl_end_s);
         }
         self.text.push('\n');
-    }
-
-    /// Starts a cell (after its separator, once the text is written) and
-    /// returns the text to write it to.
-    fn cell(&mut self) -> &mut String {
-        if self.rows.last() != Some(&self.starts.len()) {
-            self.text.push(',');
-        }
-        self.starts.push(self.text.len());
-        &mut self.text
     }
 
     /// The records' cells, each record's in column order.

@@ -46,7 +46,7 @@ use crate::friction::ModelParams;
 use crate::kinds::paired::{Compare, Paired, PairedData, PairedTrial};
 use crate::protocol::check::{ValueChecks, MAX_TRIALS};
 use crate::protocol::engine::{Action, Choice, Input, Status, TrialRecord, TrialSource};
-use crate::protocol::kind::{TrackAnswers, Holds, Kinds, LiveTrial, Next, Quality, StudyKind};
+use crate::protocol::kind::{WriteCells, Holds, Kinds, LiveTrial, Next, Quality, StudyKind, TrackAnswers};
 use crate::protocol::load::{Walk, read_object};
 use crate::protocol::plan::PlannedTrial;
 use crate::protocol::{Condition, Protocol};
@@ -628,17 +628,13 @@ impl StudyKind for Discrimination {
         }
     }
 
-    fn row(d: &DiscriminationData) -> Vec<String> {
-        use crate::results::csv::{num, opt};
-        let mut row = vec![
-            d.track.to_string(),
-            num(d.level),
-            num(d.difference),
-            num(d.comparison_value),
-        ];
-        row.extend(Paired::row(&d.answer));
-        row.push(opt(d.correct.map(|c| if c { "1" } else { "0" })));
-        row
+    fn row<W: WriteCells>(d: &DiscriminationData, out: &mut W) {
+        out.whole(d.track as u64);
+        out.num(d.level);
+        out.num(d.difference);
+        out.num(d.comparison_value);
+        Paired::row(&d.answer, out);
+        out.opt_text(d.correct.map(|c| if c { "1" } else { "0" }));
     }
 }
 

@@ -22,7 +22,7 @@ use crate::analysis::{AnalysisEntry, KindAnalysis, Section};
 use crate::friction::ModelParams;
 use crate::protocol::check::ValueChecks;
 use crate::protocol::engine::{Action, Input, Screen};
-use crate::protocol::kind::{Block, Holds, Kinds, LiveTrial, Next, StudyKind};
+use crate::protocol::kind::{Block, WriteCells, Holds, Kinds, LiveTrial, Next, StudyKind};
 use crate::protocol::load::{Walk, read_object};
 use crate::time::Time;
 
@@ -425,32 +425,25 @@ impl StudyKind for Fitts {
         Tapping::begin(trial, now, out)
     }
 
-    fn row(d: &FittsData) -> Vec<String> {
-        use crate::results::csv::{list, num, opt_num, text};
-        vec![
-            text(&d.condition),
-            num(d.amplitude_m),
-            num(d.width_m),
-            num(d.cursor_m),
-            num(d.effective_width_m),
-            num(d.id_bits),
-            opt_num(d.completion_time_s),
-            d.taps.to_string(),
-            d.errors.to_string(),
-            opt_num(d.mean_error_m),
-            list(&d.tap_times_s),
-            list(&d.tap_x_m),
-            list(&d.target_x_m),
-            list(&d.miss_x_m),
-            list(&d.click_times_s),
-            list(&d.click_x_m),
-            list(&d.click_target_x_m),
-            d.click_hit
-                .iter()
-                .map(ToString::to_string)
-                .collect::<Vec<_>>()
-                .join(";"),
-        ]
+    fn row<W: WriteCells>(d: &FittsData, out: &mut W) {
+        out.text(&d.condition);
+        out.num(d.amplitude_m);
+        out.num(d.width_m);
+        out.num(d.cursor_m);
+        out.num(d.effective_width_m);
+        out.num(d.id_bits);
+        out.opt_num(d.completion_time_s);
+        out.whole(u64::from(d.taps));
+        out.whole(u64::from(d.errors));
+        out.opt_num(d.mean_error_m);
+        out.list(&d.tap_times_s);
+        out.list(&d.tap_x_m);
+        out.list(&d.target_x_m);
+        out.list(&d.miss_x_m);
+        out.list(&d.click_times_s);
+        out.list(&d.click_x_m);
+        out.list(&d.click_target_x_m);
+        out.flags(&d.click_hit);
     }
 }
 

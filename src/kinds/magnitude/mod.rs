@@ -24,7 +24,7 @@ use crate::friction::{ModelParams, NakanoParams, Validate, parameter_problem, wi
 use crate::protocol::check::ValueChecks;
 use crate::protocol::engine::{Action, Answer, Input, Question, Screen};
 use crate::protocol::kind::{
-    Block, Exploration, Holds, Kinds, LiveTrial, Next, Quality, StudyKind,
+    Block, WriteCells, Exploration, Holds, Kinds, LiveTrial, Next, Quality, StudyKind,
 };
 use crate::protocol::load::{Walk, read_object};
 use crate::time::Time;
@@ -420,18 +420,15 @@ impl StudyKind for Magnitude {
         }
     }
 
-    fn row(d: &MagnitudeData) -> Vec<String> {
-        use crate::results::csv::{opt_num, text};
-        vec![
-            text(&d.display),
-            opt_num(d.mu_s),
-            opt_num(d.mu_k),
-            opt_num(d.delta_mu),
-            opt_num(d.magnitude),
-            opt_num(d.response_time_s),
-            d.parameter.as_deref().map(text).unwrap_or_default(),
-            opt_num(d.level),
-        ]
+    fn row<W: WriteCells>(d: &MagnitudeData, out: &mut W) {
+        out.text(&d.display);
+        out.opt_num(d.mu_s);
+        out.opt_num(d.mu_k);
+        out.opt_num(d.delta_mu);
+        out.opt_num(d.magnitude);
+        out.opt_num(d.response_time_s);
+        out.text(d.parameter.as_deref().unwrap_or_default());
+        out.opt_num(d.level);
     }
 }
 

@@ -18,7 +18,7 @@ use crate::analysis::{AnalysisEntry, KindAnalysis, Section};
 use crate::protocol::Condition;
 use crate::protocol::check::ValueChecks;
 use crate::protocol::engine::{Action, Answer, Choice, Input, Question, Screen};
-use crate::protocol::kind::{Block, Exploration, Holds, Kinds, LiveTrial, Next, StudyKind};
+use crate::protocol::kind::{Block, WriteCells, Exploration, Holds, Kinds, LiveTrial, Next, StudyKind};
 use crate::protocol::load::{Walk, read_object};
 use crate::time::Time;
 
@@ -196,14 +196,11 @@ impl StudyKind for Paired {
         Compare::start(trial, None, now, out)
     }
 
-    fn row(d: &PairedData) -> Vec<String> {
-        use crate::results::csv::{opt, text};
-        vec![
-            text(&d.first),
-            text(&d.second),
-            opt(d.choice.map(Choice::as_str)),
-            opt(d.chosen.as_deref()),
-        ]
+    fn row<W: WriteCells>(d: &PairedData, out: &mut W) {
+        out.text(&d.first);
+        out.text(&d.second);
+        out.opt_text(d.choice.map(Choice::as_str));
+        out.opt_text(d.chosen.as_deref());
     }
 }
 

@@ -35,7 +35,7 @@ use crate::protocol::check::{ValueChecks, MAX_TRIALS};
 use crate::protocol::engine::{
     Action, Input, KindScreen, OwnScreen, Screen, Status, TrialRecord, TrialSource,
 };
-use crate::protocol::kind::{Holds, Kinds, LiveTrial, Next, StudyKind, TrackAnswers};
+use crate::protocol::kind::{WriteCells, Holds, Kinds, LiveTrial, Next, StudyKind, TrackAnswers};
 use crate::protocol::load::{Walk, read_object};
 use crate::protocol::plan::PlannedTrial;
 use crate::protocol::{Condition, Protocol};
@@ -200,10 +200,9 @@ impl StudyKind for Staircase {
         }
     }
 
-    fn row(d: &StaircaseData) -> Vec<String> {
-        let mut row = vec![crate::results::csv::num(d.delta_mu_s)];
-        row.extend(Paired::row(&d.answer));
-        row
+    fn row<W: WriteCells>(d: &StaircaseData, out: &mut W) {
+        out.num(d.delta_mu_s);
+        Paired::row(&d.answer, out);
     }
 }
 
