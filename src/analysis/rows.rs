@@ -79,6 +79,17 @@ impl<'a> ColumnOf<'a> {
         part.columns.get(self.index)?.get(i)
     }
 
+    /// Its cells in the parts `parts`.
+    fn iter_parts(self, parts: std::ops::Range<usize>) -> impl Iterator<Item = &'a str> {
+        self.frame
+            .parts
+            .get(parts)
+            .unwrap_or_default()
+            .iter()
+            .filter_map(move |p| p.columns.get(self.index))
+            .flat_map(Column::iter)
+    }
+
     fn iter(self) -> impl Iterator<Item = &'a str> {
         self.frame
             .parts
@@ -194,6 +205,20 @@ impl Frame {
         part.origin.get(i).copied()
     }
 
+    /// The parts in up to `n` runs of about as many rows each: each run's
+    /// first row and its parts.
+    fn runs(&self, n: usize) -> Vec<(usize, std::ops::Range<usize>)> {
+        let per = self.height().div_ceil(n.max(1)).max(1);
+        let mut runs: Vec<(usize, std::ops::Range<usize>)> = Vec::new();
+        for k in 0..self.parts.len() {
+            match runs.last_mut() {
+                Some((first, parts)) if self.starts[k] - *first < per => parts.end = k + 1,
+                _ => runs.push((self.starts[k], k..k + 1)),
+            }
+        }
+        runs
+    }
+
     fn column(&self, name: &str) -> Option<ColumnOf<'_>> {
         let index = self.names.iter().position(|n| *n == name)?;
         Some(ColumnOf { frame: self, index })
@@ -296,7 +321,8 @@ impl Rows {
             .unwrap_or("")
     }
 
-    /// Every value of `column` as a number.
+    /// Every value of `column` as a number; a column of many rows is
+    /// read on every core, in runs of its parts.
     ///
     /// # Errors
     /// The first value that is not a finite number, with its file and line.
@@ -304,11 +330,29 @@ impl Rows {
         let Some(c) = self.frame.column(column) else {
             return Ok(Vec::new());
         };
+        let jobs = if self.len() >= PARALLEL_ROWS {
+            std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
+        } else {
+            1
+        };
+        let runs = self.frame.runs(jobs);
+        let parsed = crate::parallel::run(&runs, jobs, |&(first, ref parts)| {
+            let mut out = Vec::new();
+            for (k, t) in c.iter_parts(parts.clone()).enumerate() {
+                match finite(t) {
+                    Some(x) => out.push(x),
+                    None => return Err((first + k, t)),
+                }
+            }
+            Ok(out)
+        });
         let mut out = Vec::with_capacity(self.len());
-        for (row, t) in c.iter().enumerate() {
-            match t.trim().parse::<f64>() {
-                Ok(x) if x.is_finite() => out.push(x),
-                _ => return Err(self.error(column, row, &format!("'{t}' is not a finite number"))),
+        for run in parsed {
+            match run {
+                Ok(xs) => out.extend(xs),
+                Err((row, t)) => {
+                    return Err(self.error(column, row, &format!("'{t}' is not a finite number")));
+                }
             }
         }
         Ok(out)
@@ -351,10 +395,7 @@ impl Rows {
     /// The value is not a finite number.
     pub fn number(&self, column: &str, row: usize) -> Result<f64, Problem> {
         let t = self.text(column, row);
-        match t.trim().parse::<f64>() {
-            Ok(x) if x.is_finite() => Ok(x),
-            _ => Err(self.error(column, row, &format!("'{t}' is not a finite number"))),
-        }
+        finite(t).ok_or_else(|| self.error(column, row, &format!("'{t}' is not a finite number")))
     }
 
     /// `column` at `row` as a number, or `None` if the cell is empty.
@@ -379,9 +420,9 @@ impl Rows {
             return Ok(Vec::new());
         }
         t.split(';')
-            .map(|s| match s.trim().parse::<f64>() {
-                Ok(x) if x.is_finite() => Ok(x),
-                _ => Err(self.error(
+            .map(|s| match finite(s) {
+                Some(x) => Ok(x),
+                None => Err(self.error(
                     column,
                     row,
                     &format!("'{s}' in '{t}' is not a finite number"),
@@ -409,6 +450,21 @@ impl Rows {
             );
         Problem::new(place, message)
     }
+}
+
+/// The rows from which [`Rows::numbers`] reads a column on every core.
+const PARALLEL_ROWS: usize = 1 << 17;
+
+/// A cell's finite number (spaces around it allowed), if it is one.
+fn finite(t: &str) -> Option<f64> {
+    // Most cells have no spaces to trim: a quick look first.
+    let bare = t
+        .as_bytes()
+        .first()
+        .zip(t.as_bytes().last())
+        .is_some_and(|(a, z)| a.is_ascii_graphic() && z.is_ascii_graphic());
+    let t = if bare { t } else { t.trim() };
+    t.parse::<f64>().ok().filter(|x| x.is_finite())
 }
 
 /// Line and column (1-based) of `column`'s cell in record `record` of the
@@ -461,6 +517,46 @@ mod tests {
             all.where_filled("level", false).frame.names(),
             ["trial", "level"]
         );
+    }
+
+    #[test]
+    fn numbers_of_many_rows_are_read_in_order_and_the_first_bad_one_is_placed() {
+        // Two files of more rows together than are read on one core.
+        let file = |n: usize, bad: Option<usize>| {
+            let mut f = Frame::new(&["trial", "level"]);
+            for k in 0..n {
+                let level = if Some(k) == bad {
+                    "x".to_owned()
+                } else {
+                    format!(" {}.5", k % 1000)
+                };
+                f.push([k.to_string().as_str(), level.as_str()], 0, k + 1);
+            }
+            f
+        };
+        let n = PARALLEL_ROWS / 2 + 10;
+        let rows = |bad: Option<usize>, late: Option<usize>| {
+            let mut all = Frame::new(&["trial", "level"]);
+            all.append(file(n, bad), 0);
+            all.append(file(n, late), 1);
+            Rows::new(all, Frame::default(), vec!["a.csv".into(), "b.csv".into()])
+        };
+        let good = rows(None, None);
+        assert!(good.len() >= PARALLEL_ROWS);
+        let want: Vec<f64> = (0..2 * n).map(|r| (r % n % 1000) as f64 + 0.5).collect();
+        assert_eq!(good.numbers("level").unwrap(), want);
+        // A bad cell in the second file's rows: that file's line, whether
+        // or not an earlier one is bad too (the earlier is the one told).
+        let e = rows(None, Some(7)).numbers("level").unwrap_err();
+        assert_eq!(
+            (e.place.as_str(), e.message.as_str()),
+            ("b.csv", "level: 'x' is not a finite number")
+        );
+        let e = rows(Some(n - 1), Some(7)).numbers("level").unwrap_err();
+        assert_eq!(e.place, "a.csv");
+        assert_eq!(finite(" 2.5\t"), Some(2.5));
+        assert_eq!(finite("inf"), None);
+        assert_eq!(finite(""), None);
     }
 
     #[test]

@@ -37,6 +37,7 @@
 
 use std::collections::HashMap;
 
+use foldhash::fast::RandomState;
 use serde_json::{Value, json};
 
 use crate::analysis::counted::{KindCounted, key};
@@ -165,7 +166,7 @@ fn normalized_means(a: &Answers, displays: &[String]) -> Vec<GeoMean> {
         pd_n[p * nd + d] += 1.0;
     }
     let grand = a.ln.iter().sum::<f64>() / a.ln.len().max(1) as f64;
-    let mut index: HashMap<(u32, u64, u64), usize> = HashMap::new();
+    let mut index: HashMap<(u32, u64, u64), usize, RandomState> = HashMap::default();
     let mut stimuli: Vec<Stimulus> = Vec::new();
     for i in 0..a.ln.len() {
         let (p, d) = (a.participant[i] as usize, a.display[i] as usize);
