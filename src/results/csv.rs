@@ -59,8 +59,12 @@ fn by_core_fmt(x: f64) -> String {
 /// is `…884.2` by one, `…884.3` by the other). Shortest digits are unique
 /// unless `x` is exactly halfway between two of them, which needs its exact
 /// decimal value to have at most 18 significant digits: `x = m 2^e` with `m`
-/// odd, whose exact decimal is `m 5^-e` (e < 0). A whole number (e >= 0)
-/// counts as a possible tie.
+/// odd, whose exact decimal is `m 5^-e` (e < 0). Nor can it have 15 or
+/// fewer (0.375): two decimals of at most 15 significant digits are at
+/// least 1e-15 of their size apart, more than a double's rounding (2^-53
+/// of it) bridges, so that exact decimal is the only one of its length
+/// that reads back to `x`. A whole number (e >= 0) counts as a possible
+/// tie.
 fn may_tie(x: f64) -> bool {
     let bits = x.to_bits();
     let biased = i32::try_from((bits >> 52) & 0x7ff).unwrap_or(0);
@@ -75,11 +79,13 @@ fn may_tie(x: f64) -> bool {
     }
     let zeros = m.trailing_zeros();
     let (m, e) = (m >> zeros, e + i32::try_from(zeros).unwrap_or(0));
-    let Ok(k) = u32::try_from(-e) else {
+    let Ok(k @ 1..) = u32::try_from(-e) else {
+        // A whole number.
         return true;
     };
-    POW5.get(k as usize)
-        .is_some_and(|&p| u128::from(m) * u128::from(p) < 10_u128.pow(18))
+    POW5.get(k as usize).is_some_and(|&p| {
+        (10_u128.pow(15)..10_u128.pow(18)).contains(&(u128::from(m) * u128::from(p)))
+    })
 }
 
 /// zmij's text of `x` where it is `core::fmt`'s ([`Num::with_text`]): a
@@ -311,6 +317,11 @@ mod tests {
             xs.extend([p, -p, 1.5 * p, 123_456_789.0 * p, p / 3.0]);
         }
         for k in 0..200_000_u64 {
+            // Exact binary fractions, whose exact decimals are short
+            // (0.375, 1.5e-3 of a metre).
+            let j: i32 = rng.random_range(0..=40);
+            let i = rng.random_range(1..1_u64 << 20);
+            xs.push(i as f64 * 2_f64.powi(-j));
             // Any bit pattern, and the decimals and whole numbers data hold.
             xs.push(f64::from_bits(rng.random::<u64>()));
             xs.push(f64::from(rng.random_range(-1_000_000..1_000_000_i32)) / 1000.0);
