@@ -337,7 +337,12 @@ impl Rows {
         };
         let runs = self.frame.runs(jobs);
         let parsed = crate::parallel::run(&runs, jobs, |&(first, ref parts)| {
-            let mut out = Vec::new();
+            let rows = self
+                .frame
+                .starts
+                .get(parts.end)
+                .map_or(0, |end| end - first);
+            let mut out = Vec::with_capacity(rows);
             for (k, t) in c.iter_parts(parts.clone()).enumerate() {
                 match finite(t) {
                     Some(x) => out.push(x),
