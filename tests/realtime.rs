@@ -3,7 +3,6 @@
 //! share the machine only with each other, two at a time (Cargo.toml says
 //! why the tests are four binaries). `cargo test --test realtime lsl::`
 //! runs one file's tests.
-#[macro_use]
 mod common;
 
 mod device_link;

@@ -392,10 +392,10 @@ pub enum Clock {
     Real,
     /// One millisecond per batch of torque frames read together (one
     /// frame, for a host that waits for each reply), whatever the time:
-    /// two hosts
-    /// that send the same bytes read the same angles back, and a host
-    /// that sends on at its rate while the emulator is not scheduled has
-    /// the physics wait for it, as it waits while the host stalls.
+    /// two hosts that send the same bytes read the same angles back, and
+    /// a host that sends on at its rate while the emulator is not
+    /// scheduled has the physics wait for it, as it waits while the host
+    /// stalls.
     Lockstep,
 }
 
