@@ -1,11 +1,13 @@
 //! Data-CSV cells: how a kind's `row` (`protocol::kind::StudyKind::row`)
-//! writes text, numbers, missing values and lists.
+//! writes text, numbers, missing values and lists ([`Row`]).
 //!
 //! # Numbers
 //! Every float in a CSV is written by [`Num`]: the shortest digits that
 //! read back to the same `f64`, in plain notation or with an exponent,
 //! whichever is shorter (`0.25`, `1e-7`, `-9.706021847767924e-17`, never
 //! a 300-digit decimal). A field is at most 24 characters.
+
+use crate::protocol::kind::WriteCells;
 
 /// Text, quoted if it holds `,`, `"` or a line break.
 #[must_use]
@@ -22,8 +24,6 @@ fn needs_quotes(s: &str) -> bool {
     // Bytes, not chars: this runs for every text cell of every CSV.
     s.bytes().any(|b| matches!(b, b',' | b'"' | b'\n' | b'\r'))
 }
-
-use crate::protocol::kind::WriteCells;
 
 /// A float as written in every CSV (module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -144,24 +144,6 @@ pub fn num(x: f64) -> String {
     let mut text = String::with_capacity(24);
     Num(x).write_to(&mut text);
     text
-}
-
-/// A value, or an empty cell.
-#[must_use]
-pub fn opt<T: ToString>(x: Option<T>) -> String {
-    x.map(|v| v.to_string()).unwrap_or_default()
-}
-
-/// A float, or an empty cell.
-#[must_use]
-pub fn opt_num(x: Option<f64>) -> String {
-    x.map(num).unwrap_or_default()
-}
-
-/// Numbers, `;`-separated.
-#[must_use]
-pub fn list(xs: &[f64]) -> String {
-    xs.iter().map(|&x| num(x)).collect::<Vec<_>>().join(";")
 }
 
 /// A record's cells as a kind's `row` writes them
