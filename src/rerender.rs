@@ -102,6 +102,16 @@ pub struct Rerendered {
     pub rows: usize,
     /// Rows before the replay starts (see the module docs).
     pub skipped: usize,
+    /// Rows re-rendered and compared with what was recorded (the rows
+    /// less those skipped and those not replayed). None compared shows
+    /// nothing: `bit_exact` is then false, and `frictionlab rerender`
+    /// exits 2 (issue 63: a stream that had lost its start was skipped
+    /// whole and still said `bit_exact`).
+    pub compared: usize,
+    /// The record's status (`completed` or `aborted`): an aborted
+    /// presentation may end before its model took effect, with nothing
+    /// to compare.
+    pub status: crate::protocol::engine::Status,
     /// Who rendered the replayed rows (each mode once, in order).
     pub modes: Vec<RenderMode>,
     /// The floats they were stepped in.
@@ -120,7 +130,7 @@ pub struct Rerendered {
     /// replay expects force and vibration 0 at those rows.
     pub watchdog_rows: usize,
     /// Whether every replayed row matches exactly (the same number; 0 and
-    /// -0 alike).
+    /// -0 alike), and at least one was compared.
     pub bit_exact: bool,
     /// Time the replayed rows span, s.
     pub replayed_s: f64,
@@ -199,6 +209,7 @@ pub fn rerender_file(path: &Path) -> Result<Rerendered, Problem> {
     out.stream = file;
     out.trial = trial;
     out.run = run;
+    out.status = record.status;
     Ok(out)
 }
 
@@ -328,6 +339,8 @@ pub fn rerender(rows: &[Row], entries: &[RenderEntry]) -> Rerendered {
         run: 1,
         rows: rows.len(),
         skipped: 0,
+        compared: 0,
+        status: crate::protocol::engine::Status::Completed,
         modes: Vec::new(),
         floats: Vec::new(),
         max_force_diff_n: 0.0,
@@ -344,6 +357,7 @@ pub fn rerender(rows: &[Row], entries: &[RenderEntry]) -> Rerendered {
         bursts: 0,
     };
     let Some(first) = rows.first().and_then(|r| entries.get(r.render)) else {
+        out.bit_exact = false;
         return out;
     };
     let renders_nothing = |r: &Row| entries.get(r.render).is_some_and(|e| e.model.is_none());
@@ -359,6 +373,8 @@ pub fn rerender(rows: &[Row], entries: &[RenderEntry]) -> Rerendered {
         Float::F64 => replay::<f64>(rows, entries, start, &mut out),
         Float::F32 => replay::<f32>(rows, entries, start, &mut out),
     }
+    out.compared = rows.len().saturating_sub(out.skipped + out.unreplayed_rows);
+    out.bit_exact &= out.compared > 0;
     out
 }
 

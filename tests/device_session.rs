@@ -90,6 +90,7 @@ fn a_quick_session_runs_end_to_end_on_the_emulated_device() {
     let stats: Vec<_> = stats.collect();
     assert_eq!(stats.len(), 1, "loop statistics in the session log");
     assert!(stats[0].ticks > 1000 && stats[0].rate_hz == 1000.0);
+    println!("{}", common::assert_whole_streams(&out, &log, 1000.0));
 }
 
 #[test]
@@ -734,14 +735,7 @@ fn resends_over_a_lagging_link_restart_nothing_and_rerender_bit_exact() {
     // r-th record of trial k).
     let mut selects = 0;
     for (i, record) in log.trials.iter().enumerate() {
-        let run = log.trials[..=i]
-            .iter()
-            .filter(|r| r.trial == record.trial)
-            .count();
-        let path = out.join(format!(
-            "streams/study-magnitudequick_subject-dev_session-1_trial-{}_run-{run}_stream.csv",
-            record.trial
-        ));
+        let path = common::stream_of(&out, &log, i);
         let text = std::fs::read_to_string(&path).unwrap();
         let rows = frictionlab::rerender::parse_stream("stream", &text).unwrap();
         // A completed trial's own model shows in effect within its stream

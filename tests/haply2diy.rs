@@ -296,6 +296,10 @@ fn quick_sessions_run_on_the_emulated_2diy_resume_after_kill_9_and_keep_the_hand
                 run(protocol, &out, &dev, &["--resume"])
             });
         let planned = read.header.planned_trials;
+        println!(
+            "{protocol}: {}",
+            common::assert_whole_streams(&out, &read, 1000.0)
+        );
         let (worst, rows) = largest_offset(&out);
         println!(
             "{protocol}: {planned} trials ({} before the kill), {rows} stream rows, hand at most {:.3} mm off the track",

@@ -114,6 +114,10 @@ fn quick_sessions_run_on_the_emulated_inverse3_resume_after_kill_9_and_keep_the_
                 run(protocol, &out, &device, &["--resume"])
             });
         let planned = read.header.planned_trials;
+        println!(
+            "{protocol}: {}",
+            common::assert_whole_streams(&out, &read, 1000.0)
+        );
         let settings = read
             .header
             .device_settings
@@ -258,10 +262,13 @@ fn the_normal_force_follows_the_press_on_the_emulated_inverse3() {
         .unwrap();
     let report: serde_json::Value = serde_json::from_slice(&r.stdout).unwrap();
     println!(
-        "rerender: bit_exact {}, rows {}",
-        report["bit_exact"], report["rows"]
+        "rerender: bit_exact {}, rows {}, skipped {}, compared {}",
+        report["bit_exact"], report["rows"], report["skipped"], report["compared"]
     );
     assert_eq!(report["bit_exact"], true, "{report}");
+    // Issue 63: the stream starts with its trial, so every row from its
+    // first select on is compared (before, trial 0's were all skipped).
+    assert!(report["compared"].as_u64().unwrap() > 1000, "{report}");
 }
 
 /// The emulated service stopped mid-trial and started again on its port:

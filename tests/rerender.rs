@@ -114,7 +114,8 @@ fn a_damaged_stream_or_one_without_its_log_is_refused_with_its_place() {
 
 /// A trial aborted before the device's first tick (a device lost again
 /// right as the trial started) leaves a stream of its header alone and a
-/// record without `rendering`: it re-renders as nothing to replay. A
+/// record without `rendering`: it re-renders as nothing to replay, which
+/// shows nothing (exit 2, `compared` 0, not `bit_exact`; issue 63). A
 /// stream with rows whose record lacks `rendering` is still refused.
 #[test]
 fn a_stream_without_rows_re_renders_as_nothing_to_replay() {
@@ -143,12 +144,72 @@ fn a_stream_without_rows_re_renders_as_nothing_to_replay() {
     let text = std::fs::read_to_string(&stream).unwrap();
     std::fs::write(&stream, format!("{}\n", text.lines().next().unwrap())).unwrap();
     let o = rerender(&stream);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("no row compared"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(
-        (r["rows"].as_u64(), r["bit_exact"].as_bool()),
-        (Some(0), Some(true)),
+        (
+            r["rows"].as_u64(),
+            r["compared"].as_u64(),
+            r["bit_exact"].as_bool()
+        ),
+        (Some(0), Some(0), Some(false)),
         "{r}"
+    );
+}
+
+/// Issue 63: a stream that lost its start (before, trial 0 on a Haply
+/// device began 0.5-0.9 s into its trial, without the row where its
+/// model was selected) has no row the replay can start from. `rerender`
+/// skipped every row and still said `bit_exact`; now it prints how many
+/// rows it compared, 0, and exits 2. The whole stream compares every row
+/// from its select on.
+#[test]
+fn a_stream_without_its_start_compares_no_row_and_exits_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let stream = a_recorded_stream(dir.path());
+    let o = rerender(&stream);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let whole: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let rows = whole["rows"].as_u64().unwrap();
+    let compared = whole["compared"].as_u64().unwrap();
+    assert_eq!(
+        compared,
+        rows - whole["skipped"].as_u64().unwrap(),
+        "{whole}"
+    );
+    assert!(compared > 1000, "{whole}");
+
+    // The same stream from its 500th row: the select is gone.
+    let text = std::fs::read_to_string(&stream).unwrap();
+    let mut lines: Vec<&str> = text.lines().collect();
+    lines.drain(1..500);
+    std::fs::write(&stream, lines.join("\n") + "\n").unwrap();
+    let o = rerender(&stream);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.starts_with("error: ") && stderr.contains("no row compared"),
+        "{stderr}"
+    );
+    let cut: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    println!(
+        "whole: {rows} rows, {compared} compared; without its first 499 rows: {} rows, {} compared, bit_exact {}",
+        cut["rows"], cut["compared"], cut["bit_exact"]
+    );
+    assert_eq!(
+        (
+            cut["rows"].as_u64(),
+            cut["compared"].as_u64(),
+            cut["skipped"].as_u64(),
+            cut["bit_exact"].as_bool()
+        ),
+        (Some(rows - 499), Some(0), Some(rows - 499), Some(false)),
+        "{cut}"
     );
 }
 

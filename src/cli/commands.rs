@@ -1086,6 +1086,31 @@ struct RenderPlan {
     settings: crate::friction::StepParams,
 }
 
+/// Re-renders a stream and prints the report; a stream with no row
+/// compared shows nothing, and exits 2 after its report (issue 63).
+pub(super) fn rerender_command(stream: &Path) -> Result<(), Failure> {
+    let r = crate::rerender::rerender_file(stream).map_err(|e| Failure::from(vec![e]))?;
+    emit(&format!(
+        "{}\n",
+        serde_json::to_string_pretty(&r).unwrap_or_default()
+    ))?;
+    if r.compared == 0 {
+        return Err(Failure::from(vec![UserError::new(
+            &r.stream,
+            format!(
+                "no row compared: none of its {} rows follows the select of a model from rest{}",
+                r.rows,
+                if r.rows == 0 {
+                    " (the stream is empty)"
+                } else {
+                    ""
+                }
+            ),
+        )]));
+    }
+    Ok(())
+}
+
 pub(super) fn render_command(args: &RenderArgs) -> Result<(), Failure> {
     if let Some(plot) = &args.plot
         && plot.extension().and_then(|e| e.to_str()) != Some("svg")

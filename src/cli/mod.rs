@@ -17,8 +17,8 @@ mod commands;
 use commands::{
     analyze_command, claims_command, emulator_command, firmware_qemu_command, gui_command,
     haply2diy_emulator_command, identify_command, inverse3_emulator_command, models_json,
-    ports_command, power_command, power_merge_command, render_command, run_command,
-    simulate_command, validate_command, validation_command,
+    ports_command, power_command, power_merge_command, render_command, rerender_command,
+    run_command, simulate_command, validate_command, validation_command,
 };
 
 /// `--device`: `sim` (the simulated apparatus), a serial port's path (our
@@ -528,14 +528,7 @@ pub fn main() -> ExitCode {
         }),
         Command::Render(args) => render_command(&args),
         Command::Models => emit(&format!("{}\n", models_json())),
-        Command::Rerender { stream } => crate::rerender::rerender_file(&stream)
-            .map_err(|e| Failure::from(vec![e]))
-            .and_then(|r| {
-                emit(&format!(
-                    "{}\n",
-                    serde_json::to_string_pretty(&r).unwrap_or_default()
-                ))
-            }),
+        Command::Rerender { stream } => rerender_command(&stream),
     };
     finish(result)
 }

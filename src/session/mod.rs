@@ -80,8 +80,11 @@
 //!
 //! # Files
 //! With the simulated device the log opens at start; on a port only at the
-//! first connected tick, so a device that never answers leaves no session
-//! behind. Notes typed before then wait for the log.
+//! first connected tick (with the hand held on the track, on a device with
+//! more than one axis), so a device that never answers leaves no session
+//! behind. Notes typed before then wait for the log, and so does every
+//! input: no trial starts before the log is open, so each trial's stream
+//! holds it from its first tick (issue 63).
 
 pub mod device;
 pub mod event;
@@ -909,7 +912,13 @@ impl<R: Responder> Session<R> {
             let Some(front) = self.pending.front() else {
                 return Ok(());
             };
-            let flows = self.state == SessionState::Running && self.device.connected();
+            // Nothing flows before the session has started (its log open):
+            // on a port the log opens once the hand is held on the track,
+            // and a trial started before then would have its start (its
+            // select, its first ticks) missing from its stream.
+            let flows = self.state == SessionState::Running
+                && self.device.connected()
+                && !matches!(self.log, Log::Unopened { .. });
             let next = match front {
                 Pending::Input(Input::Abort { .. }) => self.pending.pop_front(),
                 Pending::Input(Input::Recorded) if self.catching_up => None,
