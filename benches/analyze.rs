@@ -62,6 +62,7 @@ fn generate(dir: &Path, participants: u32) {
             session: 1,
             device: "sim".into(),
             device_settings: None,
+            device_limits: None,
             responder: "sim".into(),
             planned_trials: 1000,
             population: None,

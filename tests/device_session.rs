@@ -91,6 +91,15 @@ fn a_quick_session_runs_end_to_end_on_the_emulated_device() {
     assert_eq!(stats.len(), 1, "loop statistics in the session log");
     assert!(stats[0].ticks > 1000 && stats[0].rate_hz == 1000.0);
     println!("{}", common::assert_whole_streams(&out, &log, 1000.0));
+    // The emulator states the simulated apparatus's limit, 9.48 N in the
+    // wire's f32, just below the loop's 9.48: that is the limit in force.
+    let apparatus = frictionlab::device::sim::Apparatus::default();
+    let stated = f64::from(apparatus.stated().max_force_n);
+    assert!(stated < 9.48);
+    println!(
+        "{}",
+        common::assert_force_limits(&log, stated, stated, apparatus.travel_m())
+    );
 }
 
 #[test]

@@ -300,6 +300,11 @@ fn quick_sessions_run_on_the_emulated_2diy_resume_after_kill_9_and_keep_the_hand
             "{protocol}: {}",
             common::assert_whole_streams(&out, &read, 1000.0)
         );
+        let ([lo, hi], limit) = frictionlab::device::haply2diy::Config::vendor(3).reach();
+        println!(
+            "{protocol}: {}",
+            common::assert_force_limits(&read, limit, limit, [lo, hi])
+        );
         let (worst, rows) = largest_offset(&out);
         println!(
             "{protocol}: {planned} trials ({} before the kill), {rows} stream rows, hand at most {:.3} mm off the track",

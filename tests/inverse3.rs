@@ -118,6 +118,12 @@ fn quick_sessions_run_on_the_emulated_inverse3_resume_after_kill_9_and_keep_the_
             "{protocol}: {}",
             common::assert_whole_streams(&out, &read, 1000.0)
         );
+        let config = frictionlab::device::inverse3::Config::default();
+        let r = config.workspace_radius_m;
+        println!(
+            "{protocol}: {}",
+            common::assert_force_limits(&read, config.force_limit_n, config.force_limit_n, [-r, r])
+        );
         let settings = read
             .header
             .device_settings

@@ -127,6 +127,14 @@ fn a_session_writes_the_contract_files() {
         (4, true, 3)
     );
     assert_eq!(log.header.protocol_sha256.len(), 64);
+    // The simulated apparatus states seed 002's 9.48 N and 32 mm travel;
+    // its renders are stepped at that limit (issue 63).
+    let apparatus = frictionlab::device::sim::Apparatus::default();
+    println!(
+        "{}",
+        common::assert_force_limits(&log, 9.48, 9.48, [-0.016, 0.016])
+    );
+    assert_eq!(apparatus.travel_m(), [-0.016, 0.016]);
 }
 
 #[test]

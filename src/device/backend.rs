@@ -42,10 +42,27 @@ pub struct Capabilities {
     pub vertical_axis: Option<usize>,
     /// The largest force it renders, N (the magnitude of the force vector).
     pub force_limit_n: f64,
+    /// The stretch of its track the hand can reach, m from the track's
+    /// origin along its direction (lowest, highest): every position a
+    /// protocol asks for must lie within it (issue 63).
+    pub travel_m: [f64; 2],
     /// The fastest loop rate it keeps up with, Hz.
     pub max_rate_hz: f64,
     /// Whether it can render models on board ([`Backend::on_board`]).
     pub on_board: bool,
+}
+
+/// What a device states of its force and reach, as a session's header
+/// records it (issue 63).
+#[derive(
+    Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
+pub struct DeviceLimits {
+    /// Its own force limit, N ([`Capabilities::force_limit_n`]).
+    pub force_limit_n: f64,
+    /// The stretch of its track the hand can reach, m from the track's
+    /// origin (lowest, highest; [`Capabilities::travel_m`]).
+    pub travel_m: [f64; 2],
 }
 
 /// What the device reported at a tick.
@@ -85,7 +102,11 @@ pub struct LinkStats {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Mode {
     /// The host's loop, commanding force over the link.
-    Host,
+    Host {
+        /// The force limit its models were rendered with, N: the smaller
+        /// of the loop's (the model's clamp) and the device's.
+        limit_n: f64,
+    },
     /// The device itself, at `rate_hz` in `float`.
     OnBoard {
         /// On-board loop rate, Hz.
@@ -150,6 +171,10 @@ pub struct Tick {
     /// A model sent zero force this tick because it computed a force that
     /// was not a number or infinite.
     pub non_finite: bool,
+    /// The device's own force limit as it states it now, N
+    /// ([`Capabilities::force_limit_n`]; a device may state it only once
+    /// connected).
+    pub device_limit_n: f64,
 }
 
 impl Tick {
@@ -185,8 +210,11 @@ impl Tick {
             selected: false,
             watchdog: false,
             device_tick: None,
-            mode: Mode::Host,
+            mode: Mode::Host {
+                limit_n: crate::friction::ForceLimit::<f64>::default().newtons(),
+            },
             non_finite: false,
+            device_limit_n: crate::friction::ForceLimit::<f64>::default().newtons(),
         }
     }
 }

@@ -31,7 +31,7 @@ use std::time::{Duration, Instant};
 use super::backend::{Backend, LinkState, MAX_AXES, Vector};
 pub use super::backend::{Mode, Tick, UNKNOWN_RENDER};
 use super::track::Track;
-use crate::friction::{Input, ModelParams, StepParams};
+use crate::friction::{ForceLimit, Input, ModelParams, StepParams};
 use crate::hand::HandDrive;
 use frictionlab_core::render::Renderer;
 
@@ -352,6 +352,17 @@ fn run(
         let connected = reading.link == LinkState::Connected;
         motion.update(&track, reading.position_m, connected, alpha, dt);
 
+        // The limit in force: the smaller of the loop's and the device's,
+        // which a device may state only once connected (before any model
+        // of a session is selected: a session starts at a connected tick).
+        let device_limit_n = device.capabilities().force_limit_n;
+        let in_force = device_limit_n.min(step.force_limit.newtons());
+        if in_force != renderer.limit().newtons()
+            && let Ok(limit) = ForceLimit::new(in_force)
+        {
+            renderer.set_limit(limit);
+        }
+
         // Session -> loop.
         while let Ok(m) = inbox.pop() {
             match m {
@@ -402,11 +413,7 @@ fn run(
             (0.0, 0.0)
         };
         let force = if connected {
-            let limit = device
-                .capabilities()
-                .force_limit_n
-                .min(step.force_limit.newtons());
-            track.force(along_n, motion.offset, motion.offset_v, limit)
+            track.force(along_n, motion.offset, motion.offset_v, in_force)
         } else {
             [0.0; MAX_AXES]
         };
@@ -427,6 +434,10 @@ fn run(
                 normal_n,
                 problem: reading.problem,
                 non_finite: !finite,
+                mode: Mode::Host {
+                    limit_n: renderer.limit().newtons(),
+                },
+                device_limit_n,
                 ..Tick::on_axis(now, motion.along, motion.v, along_n, vibration)
             },
         );

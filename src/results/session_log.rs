@@ -54,6 +54,10 @@ pub struct Header<K: Kinds> {
     /// (a service's filters, a calibration, the track), where it has any.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub device_settings: Option<serde_json::Value>,
+    /// What the device states of its force limit and its reach along the
+    /// track (issue 63; absent in logs from before).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub device_limits: Option<crate::device::backend::DeviceLimits>,
     /// Responder (`sim` or `gui`).
     pub responder: String,
     /// Number of planned trials.

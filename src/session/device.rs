@@ -5,6 +5,7 @@
 use std::collections::VecDeque;
 
 use crate::device::LinkState;
+use crate::device::backend::DeviceLimits;
 use crate::device::haptic::{HapticLoop, LoopStats, Mode, Tick, ToLoop};
 use crate::device::sim::SimDevice;
 use crate::friction::ModelParams;
@@ -43,7 +44,8 @@ pub(super) struct Port {
     /// The device's axes.
     pub(super) axes: usize,
     pub(super) rate_hz: f64,
-    force_limit_n: f64,
+    /// The stretch of the track the device reaches, m.
+    travel_m: [f64; 2],
     periods: VecDeque<f64>,
     last_tick_s: Option<f64>,
     pub(super) link: LinkState,
@@ -58,14 +60,14 @@ impl Port {
         settings: Option<serde_json::Value>,
         axes: usize,
         rate_hz: f64,
-        force_limit_n: f64,
+        travel_m: [f64; 2],
     ) -> Self {
         Port {
             haptic,
             settings,
             axes,
             rate_hz,
-            force_limit_n,
+            travel_m,
             periods: VecDeque::with_capacity(PERIODS_KEPT),
             last_tick_s: None,
             link: LinkState::Connecting,
@@ -113,12 +115,12 @@ impl Port {
     pub(super) fn how(&self, tick: &Tick) -> super::renders::How {
         use crate::results::RenderMode;
         match tick.mode {
-            Mode::Host => super::renders::How {
+            Mode::Host { limit_n } => super::renders::How {
                 mode: RenderMode::HostLoop,
                 float: crate::friction::Float::F64,
                 rate_hz: self.rate_hz,
                 ramp_s: crate::device::haptic::RAMP_S,
-                force_limit_n: self.force_limit_n,
+                force_limit_n: limit_n,
             },
             Mode::OnBoard {
                 rate_hz,
@@ -131,6 +133,14 @@ impl Port {
                 ramp_s: crate::device::haptic::RAMP_S,
                 force_limit_n: f64::from(limit_n),
             },
+        }
+    }
+
+    /// What the device states of its force and reach, as of `tick`.
+    pub(super) fn limits(&self, tick: &Tick) -> DeviceLimits {
+        DeviceLimits {
+            force_limit_n: tick.device_limit_n,
+            travel_m: self.travel_m,
         }
     }
 
@@ -209,7 +219,7 @@ impl Device {
                     settings,
                     caps.axes,
                     step.rate_hz,
-                    step.force_limit.newtons(),
+                    caps.travel_m,
                 )))
             }
         })
@@ -248,6 +258,18 @@ impl Device {
                 rate_hz: 1.0 / dt.secs(),
                 ramp_s: 0.0,
                 force_limit_n: device.force_limit_n(),
+            }),
+            _ => None,
+        }
+    }
+
+    /// What the simulated apparatus states of its force and reach (None
+    /// for a port, whose ticks say).
+    pub(super) fn sim_limits(&self) -> Option<DeviceLimits> {
+        match self {
+            Device::Sim { device, .. } => Some(DeviceLimits {
+                force_limit_n: device.apparatus().max_force_n,
+                travel_m: device.apparatus().travel_m(),
             }),
             _ => None,
         }

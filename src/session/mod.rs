@@ -420,11 +420,15 @@ impl<R: Responder> Session<R> {
         responder: R,
     ) -> Result<Self, SessionError> {
         let device_label = device.label();
-        if matches!(device, DeviceChoice::Simulated) && !matches!(log, Log::Memory(_)) {
-            log.open()?;
-        }
+        let simulated = matches!(device, DeviceChoice::Simulated);
         let device = Device::open(device, rate_hz, responder.hand_mass_kg())?;
         log.set_device_settings(device.settings());
+        if let Some(limits) = device.sim_limits() {
+            log.set_device_limits(limits);
+        }
+        if simulated && !matches!(log, Log::Memory(_)) {
+            log.open()?;
+        }
         // How the simulated device steps, for its streams' rows (a port's
         // ticks say how each was stepped).
         let how = device.sim_how().unwrap_or(How {
@@ -739,7 +743,10 @@ impl<R: Responder> Session<R> {
                     Gate::Open | Gate::Went => {}
                 }
                 // The session starts (its files are written) once the
-                // device answers.
+                // device answers, its header with what it states.
+                if let Device::Port(port) = &self.device {
+                    self.log.set_device_limits(port.limits(&tick));
+                }
                 self.log.open()?;
                 if self.device.axes() > 1
                     && let Some(open) = self.log.opened()

@@ -210,6 +210,7 @@ pub fn new_session(
         session,
         device: req.device.label(),
         device_settings: None,
+        device_limits: None,
         responder: responder.into(),
         planned_trials: source.planned().unwrap_or(0),
         population: req.population.cloned(),
@@ -242,6 +243,12 @@ impl PlannedSession {
     pub(super) fn set_device_settings(&mut self, settings: Option<serde_json::Value>) {
         if let Opening::New { header, .. } = &mut self.opening {
             header.device_settings = settings;
+        }
+    }
+
+    pub(super) fn set_device_limits(&mut self, limits: crate::device::backend::DeviceLimits) {
+        if let Opening::New { header, .. } = &mut self.opening {
+            header.device_limits = Some(limits);
         }
     }
 
@@ -432,6 +439,12 @@ impl Log {
     pub(super) fn set_device_settings(&mut self, settings: Option<serde_json::Value>) {
         if let Log::Unopened { planned, .. } = self {
             planned.set_device_settings(settings);
+        }
+    }
+
+    pub(super) fn set_device_limits(&mut self, limits: crate::device::backend::DeviceLimits) {
+        if let Log::Unopened { planned, .. } = self {
+            planned.set_device_limits(limits);
         }
     }
 

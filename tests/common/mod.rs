@@ -448,3 +448,40 @@ pub fn assert_whole_streams(
     }
     line
 }
+
+/// Issue 63: every render of every trial of `log` was stepped with the
+/// force limit in force, `limit_n` (the smaller of the model's clamp and
+/// the device's), and the header states the device's own limit and travel.
+/// Before, every host-loop render said 9.48 N (the simulated apparatus's)
+/// on the 2DIY and the Inverse3. Returns a line for the test's output.
+pub fn assert_force_limits(
+    log: &frictionlab::kinds::ReadLog,
+    device_limit_n: f64,
+    limit_n: f64,
+    travel_m: [f64; 2],
+) -> String {
+    let stated = log
+        .header
+        .device_limits
+        .expect("the device's limits in the header");
+    assert_eq!(
+        (stated.force_limit_n, stated.travel_m),
+        (device_limit_n, travel_m),
+        "the header's device limits"
+    );
+    let mut renders = 0;
+    for r in &log.trials {
+        for e in &r.rendering {
+            assert_eq!(
+                e.force_limit_n, limit_n,
+                "trial {}: a render stepped with {} N, not the limit in force",
+                r.trial, e.force_limit_n
+            );
+            renders += 1;
+        }
+    }
+    assert!(renders > 0, "no render recorded");
+    format!(
+        "{renders} renders at {limit_n} N; the header: the device's limit {device_limit_n} N, travel {travel_m:?} m"
+    )
+}

@@ -72,6 +72,13 @@ impl Default for Apparatus {
 }
 
 impl Apparatus {
+    /// How far the slide moves between its end stops, m from the middle
+    /// (lowest, highest): `range_m` centred on 0.
+    #[must_use]
+    pub fn travel_m(&self) -> [f64; 2] {
+        [-self.range_m / 2.0, self.range_m / 2.0]
+    }
+
     /// What a device on this apparatus states in its `Capabilities`.
     #[must_use]
     #[expect(
@@ -166,6 +173,12 @@ impl SimDevice {
         self.physical_params = model.cloned();
         self.physical = model
             .and_then(|m| Friction::new(m, ForceLimit::new(1e3).unwrap_or_default(), self.x).ok());
+    }
+
+    /// The apparatus.
+    #[must_use]
+    pub fn apparatus(&self) -> &Apparatus {
+        &self.p
     }
 
     /// The force limit of the rendered models, N.

@@ -246,6 +246,13 @@ impl<T: Real> Renderer<T> {
         self.limit
     }
 
+    /// Limits the models selected from now on to `limit`, and every
+    /// step's force from now on (a device that states its own limit once
+    /// connected).
+    pub fn set_limit(&mut self, limit: ForceLimit<T>) {
+        self.limit = limit;
+    }
+
     /// Renders `params` from the next step on (`None`: nothing), the model
     /// at rest at `x_m`, crossfading from what was rendered. An invalid
     /// model renders nothing; returns false then.

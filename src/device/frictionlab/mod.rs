@@ -166,6 +166,10 @@ impl Backend for Port {
                 .map_or(crate::device::sim::Apparatus::default().max_force_n, |c| {
                     c.max_force_n
                 }),
+            // The wire states no travel: the board is built as seed 002's
+            // apparatus (docs/hardware.md), as its emulator and QEMU's
+            // firmware simulate it.
+            travel_m: crate::device::sim::Apparatus::default().travel_m(),
             max_rate_hz: f64::INFINITY,
             on_board: self.link.on_board().is_some(),
         }
@@ -303,6 +307,7 @@ impl super::backend::OnBoard for Port {
         }
         // The device renders: its telemetry are the ticks.
         let mode = self.mode();
+        let device_limit_n = Backend::capabilities(self).force_limit_n;
         let connected = reading.link == LinkState::Connected;
         let device_dt = 1.0 / f64::from(on_board.map_or(1, |o| o.loop_rate_hz.max(1)));
         for t in &self.telemetry {
@@ -323,6 +328,7 @@ impl super::backend::OnBoard for Port {
                 watchdog: t.flags & status::WATCHDOG != 0,
                 device_tick: Some(t.tick),
                 mode,
+                device_limit_n,
                 ..Tick::on_axis(at, t.x_m, t.v_m_s, t.force_n, t.vibration)
             });
         }
@@ -347,6 +353,7 @@ impl super::backend::OnBoard for Port {
             emit(Tick {
                 link: reading.link,
                 mode,
+                device_limit_n,
                 ..Tick::on_axis(
                     now_s.max(self.board.last_now),
                     reading.position_m[0],

@@ -167,21 +167,76 @@ impl Config {
         pantograph::inverse(&self.links, o[0], o[1]).map(|a| pantograph::forward(&self.links, a))
     }
 
-    /// The largest force that needs no torque beyond the firmware's limit
-    /// at the track's origin, whatever its direction, N.
+    /// The largest force that needs no torque beyond the firmware's limit,
+    /// whatever its direction, at the point `along_m` from the track's
+    /// origin, N; None where the linkage does not reach.
     #[must_use]
-    pub fn force_limit_n(&self) -> f64 {
-        self.origin_pose().map_or(0.0, |p| {
-            let [j11, j12, j21, j22] = p.j;
+    pub fn force_limit_at(&self, along_m: f64) -> Option<f64> {
+        let (o, d) = (self.track.origin_m, self.track.direction);
+        let n = d[0].hypot(d[1]);
+        let (x, y) = (o[0] + along_m * d[0] / n, o[1] + along_m * d[1] / n);
+        pantograph::inverse(&self.links, x, y).map(|a| {
+            let [j11, j12, j21, j22] = pantograph::forward(&self.links, a).j;
             MAX_TORQUE_N_M / j11.hypot(j12).max(j21.hypot(j22))
         })
     }
+
+    /// The stretch of the track the 2DIY is stated to reach, m from its
+    /// origin (lowest, highest), and the force limit over it, N: from the
+    /// origin outwards in steps of [`TRAVEL_STEP_M`], as far as the
+    /// linkage reaches with a force limit (in every direction, within
+    /// the firmware's torque) of at least [`TRAVEL_FORCE_SHARE`] of the
+    /// origin's; the limit is the smallest over that stretch, so it holds
+    /// everywhere on it. Our choice: the vendor states no workspace for
+    /// the 2DIY in the documents read, and the force limit falls towards
+    /// the linkage's singular edges. The vendor's v3 on the default track:
+    /// about ±76 mm, 1.717 N. Zero travel and 0 N where the linkage does
+    /// not reach the origin.
+    #[must_use]
+    pub fn reach(&self) -> ([f64; 2], f64) {
+        let Some(at_origin) = self.force_limit_at(0.0) else {
+            return ([0.0; 2], 0.0);
+        };
+        let mut limit = at_origin;
+        let mut travel = [0.0; 2];
+        for (side, sign) in [(0, -1.0), (1, 1.0)] {
+            for k in 1..=MAX_TRAVEL_STEPS {
+                let along = sign * f64::from(k) * TRAVEL_STEP_M;
+                match self.force_limit_at(along) {
+                    Some(l) if l >= TRAVEL_FORCE_SHARE * at_origin => {
+                        limit = limit.min(l);
+                        travel[side] = along;
+                    }
+                    _ => break,
+                }
+            }
+        }
+        (travel, limit)
+    }
+
+    /// The force limit over the stated travel ([`Config::reach`]), N.
+    #[must_use]
+    pub fn force_limit_n(&self) -> f64 {
+        self.reach().1
+    }
 }
+
+/// The step of the search for a 2DIY's travel ([`Config::reach`]), m.
+pub const TRAVEL_STEP_M: f64 = 0.0005;
+
+/// How far that search goes each way, in steps (0.2 m, beyond any 2DIY's
+/// reach).
+const MAX_TRAVEL_STEPS: u32 = 400;
+
+/// Along its stated travel a 2DIY renders at least this share of the force
+/// it can render at the track's origin ([`Config::reach`]; our choice).
+pub const TRAVEL_FORCE_SHARE: f64 = 0.99;
 
 /// A 2DIY on a serial port.
 pub struct Haply2Diy {
     config: Config,
     force_limit_n: f64,
+    travel_m: [f64; 2],
     transport: Transport,
     opens: u64,
     replies: Replies,
@@ -209,8 +264,10 @@ impl Haply2Diy {
     /// The board at `path` (opened on the first tick, reopened after).
     #[must_use]
     pub fn new(path: &Path, config: Config) -> Self {
+        let (travel_m, force_limit_n) = config.reach();
         Haply2Diy {
-            force_limit_n: config.force_limit_n(),
+            force_limit_n,
+            travel_m,
             config,
             transport: Transport::new(path),
             opens: 0,
@@ -267,6 +324,7 @@ impl Backend for Haply2Diy {
             axes: 2,
             vertical_axis: None,
             force_limit_n: self.force_limit_n,
+            travel_m: self.travel_m,
             max_rate_hz: RATE_HZ,
             on_board: false,
         }
@@ -359,17 +417,35 @@ impl Backend for Haply2Diy {
 mod tests {
     use super::*;
 
+    /// The force limit holds along the whole stated travel: at every
+    /// point of it a force of the limit in any direction needs no torque
+    /// beyond the firmware's (issue 63: the records state this limit).
     #[test]
     fn the_default_track_is_in_reach_and_its_force_limit_keeps_torques_within_the_firmwares() {
         let c = Config::vendor(3);
-        let limit = c.force_limit_n();
+        let ([lo, hi], limit) = c.reach();
         assert!(limit > 0.5 && limit < 5.0, "{limit}");
-        let pose = c.origin_pose().unwrap();
-        for k in 0..36 {
-            let a = f64::from(k) * 10_f64.to_radians();
-            let t = pose.torques(limit * a.cos(), limit * a.sin());
-            assert!(t[0].abs().max(t[1].abs()) <= MAX_TORQUE_N_M * (1.0 + 1e-12));
+        assert!(lo < -0.05 && hi > 0.05, "{lo} .. {hi}");
+        let mut along = lo;
+        while along <= hi {
+            let o = c.track.origin_m;
+            let a = pantograph::inverse(&c.links, o[0] + along, o[1]).unwrap();
+            let pose = pantograph::forward(&c.links, a);
+            for k in 0..36 {
+                let a = f64::from(k) * 10_f64.to_radians();
+                let t = pose.torques(limit * a.cos(), limit * a.sin());
+                assert!(
+                    t[0].abs().max(t[1].abs()) <= MAX_TORQUE_N_M * (1.0 + 1e-12),
+                    "at {along} m"
+                );
+            }
+            along += TRAVEL_STEP_M;
         }
+        // One step further the linkage renders less.
+        assert!(
+            c.force_limit_at(hi + TRAVEL_STEP_M)
+                .is_none_or(|l| l < limit / TRAVEL_FORCE_SHARE)
+        );
     }
 
     #[test]

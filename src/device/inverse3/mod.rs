@@ -350,6 +350,10 @@ impl Backend for Inverse3 {
             axes: 3,
             vertical_axis: Some(2),
             force_limit_n: self.config.force_limit_n,
+            travel_m: [
+                -self.config.workspace_radius_m,
+                self.config.workspace_radius_m,
+            ],
             max_rate_hz: RATE_HZ,
             on_board: false,
         }

@@ -48,6 +48,7 @@ impl Backend for Loopback {
             axes: 1,
             vertical_axis: None,
             force_limit_n: Apparatus::default().max_force_n,
+            travel_m: Apparatus::default().travel_m(),
             max_rate_hz: f64::INFINITY,
             on_board: false,
         }
