@@ -601,6 +601,7 @@ impl From<SessionError> for Failure {
                 format!("{device}: {what}; no session was started"),
             )]
             .into(),
+            SessionError::BeyondTravel(problems) => problems.into(),
             SessionError::Lost { .. }
             | SessionError::NeverConnected { .. }
             | SessionError::OffTrack { .. }
