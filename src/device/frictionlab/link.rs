@@ -275,9 +275,21 @@ impl Link {
             }
             _ => {}
         });
-        if let Some(c) =
-            caps.filter(|c| (1..=PROTOCOL_VERSION).contains(&c.version) && c.counts_per_m > 0.0)
-        {
+        // The same `Capabilities` while connected answer a `Hello` sent
+        // before this connection: over a link that lags, the host connects
+        // on the answer to its first `Hello` while the later ones are on
+        // their way. Each started the device afresh before anything the host
+        // has sent since reached it (a serial link keeps its order), so the
+        // connection stands. Taken as a new handshake, it was a lost device
+        // until its `OnBoard` came (a read later, under load), and the
+        // `Hello` sent meanwhile restarted the device mid-trial 200 ms
+        // later: one more loss, and so on (issue 63).
+        let late = self.capabilities.is_some()
+            && caps == self.capabilities
+            && self.state(now_s) == LinkState::Connected;
+        if let Some(c) = caps.filter(|c| {
+            !late && (1..=PROTOCOL_VERSION).contains(&c.version) && c.counts_per_m > 0.0
+        }) {
             self.capabilities = Some(c);
             self.on_board = None;
             self.was_connected = true;
