@@ -635,7 +635,7 @@ fn live_magnitude_quick(
     dir: &Path,
     dev: &Path,
     participant: &str,
-    until: impl Fn(&frictionlab::session::LiveSession, Option<Instant>) -> bool,
+    mut until: impl FnMut(&frictionlab::session::LiveSession, Option<Instant>) -> bool,
 ) -> (frictionlab::session::LiveSession, Instant) {
     use frictionlab::session::{DeviceChoice, Feed, LiveSession, SessionRequest};
     let (protocol, bytes) = magnitude_quick();
@@ -703,15 +703,37 @@ fn a_device_lost_in_the_answer_phase_costs_that_trial_in_the_window() {
 /// the loss went into the trial being aborted, and its re-render differed
 /// from the recorded force where the device had started afresh (the
 /// fresh-clone CI once saw 3.30 N on QEMU).
+///
+/// The stall comes 0.8 s of session time into the presentation under way.
+/// On a loaded machine the emulator, a process like any other, can itself
+/// fall silent for 100 ms before that: a lost device too, whose
+/// presentation is aborted and presented again (issue 63: the test then
+/// took that first presentation for the stalled one, 5 rows long). Every
+/// presentation aborted for a lost device is held to the rule.
 #[test]
 fn a_trial_aborted_for_a_stalled_device_records_nothing_from_after_the_stall() {
+    use frictionlab::time::Time;
+    use std::cell::Cell;
     let dir = tempfile::tempdir().unwrap();
     let dev = dir.path().join("dev");
     let emu = common::emulator_with(&dev, &["--on-board"]);
-    // 0.8 s into trial 0's exploration.
-    let (mut live, start) = live_magnitude_quick(dir.path(), &dev, "stall", |_, explored| {
-        explored.is_some_and(|e| e.elapsed() > Duration::from_millis(800))
+    // The presentation under way: the records written before it, and when
+    // it started (session time).
+    let under_way: Cell<Option<(usize, Time)>> = Cell::new(None);
+    let (mut live, start) = live_magnitude_quick(dir.path(), &dev, "stall", |live, _| {
+        let records = live.records().0;
+        if !live.engine().in_trial() {
+            under_way.set(None);
+            return false;
+        }
+        let (before, since) = match under_way.get() {
+            Some((before, since)) if before == records => (before, since),
+            _ => (records, live.now()),
+        };
+        under_way.set(Some((before, since)));
+        (live.now() - since).secs() > 0.8
     });
+    let (stalled, _) = under_way.get().expect("a presentation 0.8 s under way");
     let signal = |s: &str| {
         let ok = Command::new("kill")
             .args([s, &emu.id().to_string()])
@@ -730,30 +752,48 @@ fn a_trial_aborted_for_a_stalled_device_records_nothing_from_after_the_stall() {
     unplug(emu, &dev);
 
     let read = read_log::<Registry>(live.log_path()).unwrap();
-    let r = &read.trials[0];
+    let summary: Vec<_> = read
+        .trials
+        .iter()
+        .map(|r| (r.trial, r.status, r.abort_reason.as_deref()))
+        .collect();
+    println!("records {summary:?}; the stall came in record {stalled}");
+    let r = &read.trials[stalled];
     assert_eq!(
         (r.status, r.requeued, r.abort_reason.as_deref()),
         (Status::Aborted, true, Some("device lost")),
-        "{:?}",
-        read.trials
+        "{summary:?}"
     );
-    let stream = dir.path().join(format!(
-        "results/streams/study-magnitudequick_subject-stall_session-1_trial-{}_run-1_stream.csv",
-        r.trial
-    ));
-    let text = std::fs::read_to_string(&stream).unwrap();
-    let rows = frictionlab::rerender::parse_stream("stream", &text).unwrap();
-    assert!(rows.len() > 2000, "{} rows before the stall", rows.len());
-    for w in rows.windows(2) {
+    for (i, r) in read.trials.iter().enumerate() {
+        if r.abort_reason.as_deref() != Some("device lost") {
+            continue;
+        }
+        let stream = common::stream_of(&dir.path().join("results"), &read, i);
+        let text = std::fs::read_to_string(&stream).unwrap();
+        let rows = frictionlab::rerender::parse_stream("stream", &text).unwrap();
+        if i == stalled {
+            assert!(rows.len() > 2000, "{} rows before the stall", rows.len());
+        }
+        for w in rows.windows(2) {
+            assert!(
+                w[1].selected || w[1].render == w[0].render,
+                "record {i}: the render changed without a select at t = {} s: the device \
+                 started afresh after the loss, and its telemetry went into the aborted trial",
+                w[1].t_s
+            );
+        }
+        let report = frictionlab::rerender::rerender_file(&stream).unwrap();
+        println!(
+            "record {i}: {} rows, {} compared, bit_exact {}",
+            report.rows, report.compared, report.bit_exact
+        );
+        // A presentation lost before its model took effect has nothing to
+        // compare; the stalled one had 0.8 s of it.
         assert!(
-            w[1].selected || w[1].render == w[0].render,
-            "the render changed without a select at t = {} s: the device started afresh \
-             after the stall, and its telemetry went into the aborted trial",
-            w[1].t_s
+            report.bit_exact || (i != stalled && report.compared == 0),
+            "record {i}: {report:?}"
         );
     }
-    let report = frictionlab::rerender::rerender_file(&stream).unwrap();
-    assert!(report.bit_exact, "{report:?}");
 }
 
 /// A link that delivers the host's messages 200 ms late (QEMU's UART on a
