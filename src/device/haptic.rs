@@ -168,15 +168,7 @@ impl HapticLoop {
         let handle = std::thread::Builder::new()
             .name("haptic-loop".into())
             .spawn(move || {
-                let sched_fifo = fifo
-                    && thread_priority::set_thread_priority_and_policy(
-                        thread_priority::thread_native_id(),
-                        thread_priority::ThreadPriority::Min,
-                        thread_priority::ThreadSchedulePolicy::Realtime(
-                            thread_priority::RealtimeThreadSchedulePolicy::Fifo,
-                        ),
-                    )
-                    .is_ok();
+                let sched_fifo = fifo && super::realtime::ask_fifo();
                 run(
                     device,
                     step,

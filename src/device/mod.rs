@@ -14,6 +14,7 @@ pub mod inverse3;
 #[cfg(test)]
 mod loopback;
 pub mod pty;
+pub mod realtime;
 pub mod sim;
 pub mod track;
 pub mod transport;

@@ -314,6 +314,9 @@ pub fn serve(
     link_delay: Duration,
     mut on_tick: impl FnMut(&EmulatorCore),
 ) -> std::io::Result<()> {
+    // A device keeps its own time: at real-time priority where allowed
+    // (crate::device::realtime; issue 63).
+    let _ = crate::device::realtime::ask_fifo(); // granted or not, it serves
     let mut core = core;
     let mut decoder = Decoder::new();
     let mut input = [0_u8; 512];

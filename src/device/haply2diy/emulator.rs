@@ -412,6 +412,9 @@ pub fn serve(
     hand: Option<&hand_link::Receiver>,
     mut log: impl FnMut(bool, &[u8]),
 ) -> std::io::Result<()> {
+    // A device keeps its own time: at real-time priority where allowed
+    // (crate::device::realtime; issue 63).
+    let _ = crate::device::realtime::ask_fifo(); // granted or not, it serves
     let mut input = [0_u8; 512];
     let mut reply = Vec::with_capacity(512);
     let start = Instant::now();

@@ -336,6 +336,9 @@ impl Drop for Listed<'_> {
 /// # Errors
 /// The listener failed.
 pub fn serve(listener: &TcpListener, track: Track, options: &Options) -> std::io::Result<()> {
+    // A device keeps its own time: at real-time priority where allowed
+    // (crate::device::realtime, inherited by each client's thread; issue 63).
+    let _ = crate::device::realtime::ask_fifo(); // granted or not, it serves
     let shared = Arc::new(Shared {
         plant: Mutex::new(Plant::new(track)),
         sessions: Mutex::new(BTreeMap::new()),
