@@ -800,9 +800,10 @@ fn a_trial_aborted_for_a_stalled_device_records_nothing_from_after_the_stall() {
 /// loaded 2-core machine lagged so): the host resends a select its device
 /// has not yet shown in effect, and those resends arrive after the select
 /// itself, some in the next trial. A resend must not restart the model in
-/// effect, and every stream must still re-render bit for bit. (The
-/// fresh-clone CI once saw 0.45 N on QEMU: a stale resend restarted the
-/// previous trial's model at the start of the next trial's stream.)
+/// effect, and every stream with rows to compare must still re-render bit
+/// for bit. (The fresh-clone CI once saw 0.45 N on QEMU: a stale resend
+/// restarted the previous trial's model at the start of the next trial's
+/// stream.)
 #[test]
 fn resends_over_a_lagging_link_restart_nothing_and_rerender_bit_exact() {
     let dir = tempfile::tempdir().unwrap();
@@ -820,9 +821,23 @@ fn resends_over_a_lagging_link_restart_nothing_and_rerender_bit_exact() {
     let r = common::rerender_all(&out);
     assert_eq!(r.modes, ["on_board"]);
     for x in &r.reports {
+        // A presentation aborted before its model took effect (the device
+        // lost: on a loaded machine a 200 ms link costs some) has nothing
+        // to compare, and rerender says so (bit_exact false, exit 2), as
+        // common::rerender_all allows; every other stream re-renders bit
+        // for bit. Issue 63: this test held those to bit_exact too and
+        // failed 8 of 10 runs beside a busy loop.
+        if x["status"] == "aborted" && x["compared"] == 0 {
+            continue;
+        }
         assert_eq!(x["bit_exact"], true, "{x}");
         assert!(x["restarted_row"].is_null(), "{x}");
     }
+    let nothing = r.reports.iter().filter(|x| x["compared"] == 0).count();
+    println!(
+        "{} streams ({nothing} of them presentations aborted before their model took effect), {} rows re-rendered, largest force difference {} N",
+        r.streams, r.rows, r.force
+    );
     assert!(r.rows > 20_000, "{} rows re-rendered", r.rows);
     // Each presentation's stream against its record (trial k, run r: the
     // r-th record of trial k).
