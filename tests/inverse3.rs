@@ -92,8 +92,15 @@ fn largest_offsets(out: &Path) -> ([f64; 2], usize) {
 /// simulated participant: killed with SIGKILL after two trials, resumed,
 /// every trial completed exactly once, the hand within 1 mm of the track on
 /// both held axes in every row, and the service's filters in the header.
-/// The service runs in lockstep (1 ms of physics per message): the rule is
-/// the loop's wall law at its rate, not the machine's scheduling. In real
+/// The service runs in lockstep (1 ms of physics per message computed on
+/// its newest state): the rule is the loop's wall law at its rate, not the
+/// machine's scheduling. Issue 63: with 1 ms for every message, the
+/// messages a host sent on a state it had already read (its loop catching
+/// up after a stall, or the service stalled while the host sent on) each
+/// ran a period open-loop, and the hand left the track (fresh-clone CI
+/// beside a build: fitts-quick 2.1 mm across, 3.5 mm vertically; with the
+/// service and the session stopped at random for 5-150 ms, 0.74-2.38 mm
+/// across in 5 of 5 runs). In real
 /// time, a host stalled past the service's 50 ms command lifetime lets the
 /// force lapse, as the real service does, and the hand drops (37 mm seen
 /// under load).

@@ -208,7 +208,8 @@ enum Command {
         /// hosts that send the same bytes read the same angles back, and a
         /// host the machine stalls stalls the device with it); haply2diy:
         /// frames that arrive together count once, so an emulator the
-        /// machine stalls stalls the physics too.
+        /// machine stalls stalls the physics too; inverse3: a message that
+        /// echoes an older state frame's number than the newest adds none.
         #[arg(long)]
         lockstep: bool,
         /// haply2diy: append every frame the board takes and every reply,

@@ -148,6 +148,9 @@ fn every_message_our_driver_and_emulator_send_parses_with_the_crates_types() {
         stiffness_n_m: 300.0,
         ..Default::default()
     });
+    // To our emulator in lockstep, the driver also echoes the number of the
+    // state it read (issue 63).
+    with_hand.frictionlab_state = Some(7);
     for (what, m) in [
         ("first", &first),
         ("force", &plain),
@@ -196,7 +199,10 @@ fn every_message_our_driver_and_emulator_send_parses_with_the_crates_types() {
     let d = &data.inverse3[0];
     assert!(d.config.as_ref().unwrap().gravity_compensation.enabled);
     assert!(d.status.calibrated && d.status.ready);
-    let update = serde_json::to_string(&plant.frame(3, false)).unwrap();
+    // In lockstep a frame carries its state's number (issue 63).
+    let mut numbered = plant.frame(3, false);
+    numbered.frictionlab_state = Some(12);
+    let update = serde_json::to_string(&numbered).unwrap();
     let state: ServiceState =
         serde_json::from_str(&update).unwrap_or_else(|e| panic!("{e}: {update}"));
     let p = state.inverse3[0].state.cursor_position.unwrap();

@@ -78,6 +78,9 @@ pub struct Plant {
     force_n: [f64; 3],
     commanded_s: f64,
     t_s: f64,
+    /// Host periods advanced in lockstep: the number of the state a frame
+    /// shows ([`Options::lockstep`]).
+    periods: u64,
 }
 
 impl Plant {
@@ -99,6 +102,7 @@ impl Plant {
             force_n: [0.0; 3],
             commanded_s: f64::NEG_INFINITY,
             t_s: 0.0,
+            periods: 0,
         }
     }
 
@@ -124,6 +128,13 @@ impl Plant {
             self.step(STEP_S);
             self.t_s += STEP_S;
         }
+        self.periods += 1;
+    }
+
+    /// Host periods advanced in lockstep: the number of the state it is in.
+    #[must_use]
+    pub fn periods(&self) -> u64 {
+        self.periods
     }
 
     fn step(&mut self, dt: f64) {
@@ -186,6 +197,7 @@ impl Plant {
         ServiceFrame {
             session_id,
             inverse3: vec![self.device(inventory)],
+            frictionlab_state: None,
         }
     }
 
@@ -247,10 +259,18 @@ pub struct Options {
     pub version: String,
     /// Whether it lists an Inverse3 (false: an inventory with none).
     pub with_device: bool,
-    /// Advances the physics one host period (1 ms) per client
-    /// message instead of in real time: a host the machine stalls stalls
-    /// the device with it, so what a client reads follows from what it
-    /// sent, whatever the load.
+    /// Advances the physics one host period (1 ms) per client message
+    /// instead of in real time: a host the machine stalls stalls the device
+    /// with it, so what a client reads follows from what it sent, whatever
+    /// the load. Each state frame then carries its number
+    /// (`frictionlab_state`); a message that echoes one advances the
+    /// physics only if it is the newest, computed on the state the device
+    /// is in. One computed on an older state (sent before the client had
+    /// read the newest: the emulator stalled, or the client's loop caught
+    /// up on ticks it missed) applies its force without a period of its
+    /// own, as on the real device, where such messages arrive within one
+    /// period. A client that echoes nothing (Haply's own, which reads one
+    /// frame behind what it sends) gets one period per message.
     pub lockstep: bool,
 }
 
@@ -379,7 +399,12 @@ fn client(mut stream: TcpStream, shared: &Shared, session_id: u64) -> std::io::R
         id: session_id,
     };
     let frame = |inventory: bool| {
-        let mut f = shared.now().frame(session_id, inventory);
+        let p = shared.now();
+        let mut f = p.frame(session_id, inventory);
+        if options.lockstep {
+            f.frictionlab_state = Some(p.periods());
+        }
+        drop(p);
         if !options.with_device {
             f.inverse3.clear();
         }
@@ -408,7 +433,11 @@ fn client(mut stream: TcpStream, shared: &Shared, session_id: u64) -> std::io::R
         {
             let mut p = if options.lockstep {
                 let mut p = shared.plant();
-                p.advance_lockstep();
+                // A period for a message computed on the newest state (or
+                // from a client that does not say): see Options::lockstep.
+                if message.frictionlab_state.is_none_or(|n| n == p.periods()) {
+                    p.advance_lockstep();
+                }
                 p
             } else {
                 shared.now()
@@ -593,6 +622,52 @@ mod tests {
         assert_eq!(still["data"], "right");
         let (status, _) = ask(address, &["\x16\x03\x01 not http\r\n\r\n"]);
         assert_eq!(status, 400);
+    }
+
+    /// Issue 63: in lockstep each state frame carries its number. A message
+    /// that echoes the newest advances the physics one period, and so does
+    /// one that echoes nothing (Haply's client); of two computed on the same
+    /// state (a burst: the client's loop catching up, or the emulator
+    /// stalled while the client sent on), the second applies its force
+    /// without advancing. Before, each advanced 1 ms on a state the client
+    /// had not seen, and the loop's wall acted on positions as old as the
+    /// stall (the hand 2.1 mm off the track under load).
+    #[test]
+    fn issue_63_in_lockstep_only_a_message_computed_on_the_newest_state_advances_the_physics() {
+        let address = service();
+        let (mut ws, _) = tungstenite::connect(format!("ws://{address}/")).unwrap();
+        let inventory: ServiceFrame =
+            serde_json::from_str(ws.read().unwrap().to_text().unwrap()).unwrap();
+        let n0 = inventory.frictionlab_state.unwrap();
+        for (echo, z) in [
+            (None, 0.0),
+            (Some(n0 + 1), 0.0),
+            (Some(n0 + 2), 1.0),
+            (Some(n0 + 2), 1.5),
+        ] {
+            let mut m = super::super::messages::force(DEVICE_ID, [0.0, 0.0, z], None);
+            m.frictionlab_state = echo;
+            ws.send(tungstenite::Message::text(
+                serde_json::to_string(&m).unwrap(),
+            ))
+            .unwrap();
+        }
+        let frames: Vec<ServiceFrame> = (0..4)
+            .map(|_| serde_json::from_str(ws.read().unwrap().to_text().unwrap()).unwrap())
+            .collect();
+        let states: Vec<_> = frames.iter().map(|f| f.frictionlab_state).collect();
+        assert_eq!(
+            states,
+            [n0 + 1, n0 + 2, n0 + 3, n0 + 3].map(Some),
+            "a period each for no echo and the newest, none for a stale one"
+        );
+        let state = |k: usize| frames[k].inverse3[0].state.clone();
+        assert_eq!(state(2).cursor_position, state(3).cursor_position);
+        assert_eq!(
+            state(3).current_cursor_force.map(|f| f.z),
+            Some(1.5),
+            "the stale message's force applies"
+        );
     }
 
     /// Each WebSocket client is a session, listed with the profile it

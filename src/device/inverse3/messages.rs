@@ -64,6 +64,11 @@ pub struct ClientMessage {
     /// when a simulated participant drives the hand).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub frictionlab_hand: Option<crate::hand::HandDrive>,
+    /// The `frictionlab_state` of the newest state frame read when the
+    /// message was computed, echoed (sent only to a service whose frames
+    /// carry one: our emulator in lockstep; a key the real service ignores).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frictionlab_state: Option<u64>,
 }
 
 /// The `session` part of a message to the service.
@@ -127,6 +132,12 @@ pub struct ServiceFrame {
     /// The Inverse3s.
     #[serde(default)]
     pub inverse3: Vec<DeviceFrame>,
+    /// Our emulator in lockstep numbers the states it sends: the host
+    /// periods its physics has run (a key the real service does not send).
+    /// A client that echoes it tells the emulator which state each message
+    /// was computed on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frictionlab_state: Option<u64>,
 }
 
 /// One Inverse3 in a frame.
@@ -197,6 +208,7 @@ pub fn force(device_id: &str, force_n: [f64; 3], profile: Option<&str>) -> Clien
         verse_grip: Vec::new(),
         wireless_verse_grip: Vec::new(),
         frictionlab_hand: None,
+        frictionlab_state: None,
     }
 }
 

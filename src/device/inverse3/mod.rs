@@ -17,7 +17,10 @@
 //! line, a service that is missing or speaks another version, an
 //! inventory with no Inverse3, or a cursor far from the track. Then one
 //! force command goes out and one state frame comes back per tick, on the
-//! haptic loop's thread. The inventory's configuration (filters, gravity
+//! haptic loop's thread. Where the service numbers its state frames (our
+//! emulator in lockstep, [`emulator::Options::lockstep`]), each command
+//! echoes the number of the newest frame read: the state it was computed
+//! on. The inventory's configuration (filters, gravity
 //! compensation, torque scaling) is logged in the session header.
 //!
 //! Never run on an Inverse3 here: written from the service's
@@ -278,9 +281,14 @@ fn open(target: &str, settings: &super::Settings) -> Result<Box<dyn Backend>, St
             .unwrap_or_default(),
     ))
     .map_err(|e| format!("the Inverse Service at {address}: {e}"))?;
-    let state = read_frame(&mut ws)
-        .and_then(|f| f.inverse3.into_iter().find(|d| d.device_id == device_id))
-        .ok_or_else(|| format!("the Inverse Service at {address} sent no state for {device_id}"))?;
+    let no_state = || format!("the Inverse Service at {address} sent no state for {device_id}");
+    let frame = read_frame(&mut ws).ok_or_else(no_state)?;
+    let seen = frame.frictionlab_state;
+    let state = frame
+        .inverse3
+        .into_iter()
+        .find(|d| d.device_id == device_id)
+        .ok_or_else(no_state)?;
     let p = state.state.cursor_position.unwrap_or_default().array();
     let o = config.track.origin_m;
     let off = ((p[0] - o[0]).powi(2) + (p[1] - o[1]).powi(2) + (p[2] - o[2]).powi(2)).sqrt();
@@ -311,6 +319,7 @@ fn open(target: &str, settings: &super::Settings) -> Result<Box<dyn Backend>, St
         tried_s: f64::NEG_INFINITY,
         hand: None,
         frames: 0,
+        seen,
     }))
 }
 
@@ -326,12 +335,16 @@ pub struct Inverse3 {
     tried_s: f64,
     hand: Option<HandDrive>,
     frames: u64,
+    /// The newest state frame's number, where the service numbers them (our
+    /// emulator in lockstep): each message echoes it.
+    seen: Option<u64>,
 }
 
 impl Inverse3 {
     fn send(&mut self, force: [f64; 3]) {
         let mut m = messages::force(&self.device_id, force, None);
         m.frictionlab_hand = self.hand.take();
+        m.frictionlab_state = self.seen;
         let Some(ws) = self.ws.as_mut() else {
             return;
         };
@@ -368,6 +381,7 @@ impl Backend for Inverse3 {
             {
                 self.device_id = id;
                 self.ws = Some(ws);
+                self.seen = None;
             }
         }
         while let Some(ws) = self.ws.as_mut() {
@@ -380,6 +394,7 @@ impl Backend for Inverse3 {
                         self.position = p.array();
                         self.last_frame_s = Some(now_s);
                         self.frames += 1;
+                        self.seen = f.frictionlab_state;
                     }
                 }
                 Ok(_) => {}
