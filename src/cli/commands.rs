@@ -357,10 +357,13 @@ pub(super) fn haply2diy_emulator_command(
     use crate::device::haply2diy::{Config, emulator};
     use crate::device::pty::{self, Endpoint, OpenError};
     let place = format!("haply2diy:{}", path.display());
-    let mut port = pty::open(path).map_err(|e| match e {
-        OpenError::NotAPort(_) => Failure::from(vec![UserError::new(&place, e.to_string())]),
-        _ => device_failure(&place, e.to_string()),
-    })?;
+    let open = || {
+        pty::open(path).map_err(|e| match e {
+            OpenError::NotAPort(_) => Failure::from(vec![UserError::new(&place, e.to_string())]),
+            _ => device_failure(&place, e.to_string()),
+        })
+    };
+    let mut port = open()?;
     let mut log = match transcript {
         Some(t) => Some(
             std::fs::OpenOptions::new()
@@ -384,23 +387,61 @@ pub(super) fn haply2diy_emulator_command(
             )
         }
     })?;
-    let core = emulator::BoardCore::new(&Config::vendor(3));
+    let mut core = emulator::BoardCore::new(&Config::vendor(3));
     let clock = if lockstep {
         emulator::Clock::Lockstep
     } else {
         emulator::Clock::Real
     };
-    emulator::serve(port.port(), core, clock, Some(&hand), |from_host, bytes| {
-        if let Some(f) = log.as_mut() {
-            use std::io::Write as _;
-            let mut line = String::from(if from_host { "> " } else { "< " });
-            for b in bytes {
-                let _ = write!(line, "{b:02x}");
+    let faults = emulator::Faults::default();
+    #[cfg(unix)]
+    for (signal, flag) in [
+        (signal_hook::consts::SIGUSR1, &faults.lose_setup),
+        (signal_hook::consts::SIGUSR2, &faults.replug),
+    ] {
+        signal_hook::flag::register(signal, std::sync::Arc::clone(flag))
+            .map_err(|e| device_failure(&place, format!("cannot handle signals: {e}")))?;
+    }
+    loop {
+        let served = emulator::serve(
+            port.port(),
+            &mut core,
+            clock,
+            Some(&hand),
+            &faults,
+            |from_host, bytes| {
+                if let Some(f) = log.as_mut() {
+                    use std::io::Write as _;
+                    let mut line = String::from(if from_host { "> " } else { "< " });
+                    for b in bytes {
+                        let _ = write!(line, "{b:02x}");
+                    }
+                    let _ = writeln!(f, "{line}");
+                }
+            },
+        )
+        .map_err(|e| device_failure(&place, e.to_string()))?;
+        match served {
+            emulator::Served::LoseSetup if core.is_set_up() => {
+                core.lose_setup();
+                emit("haply2diy emulator: the board lost its setup (SIGUSR1)\n")?;
             }
-            let _ = writeln!(f, "{line}");
+            emulator::Served::LoseSetup => {
+                core.park();
+                emit("haply2diy emulator: the handle put at its calibration pose (SIGUSR1)\n")?;
+            }
+            emulator::Served::Replug => {
+                // The port goes away (its pseudo-terminal closed, the link
+                // left dangling) and comes back, the board as it was.
+                drop(port);
+                std::thread::sleep(std::time::Duration::from_secs_f64(emulator::REPLUG_GAP_S));
+                port = open()?;
+                emit(&format!(
+                    "haply2diy emulator: port replugged (SIGUSR2), the board still set up, on {place}\n"
+                ))?;
+            }
         }
-    })
-    .map_err(|e| device_failure(&place, e.to_string()))
+    }
 }
 
 pub(super) fn emulator_command(
