@@ -693,23 +693,16 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
             session::run_simulated(&dir, &req, Some(&interrupt), &mut |_, _| {})
                 .map_err(Failure::from)
         }
-        DeviceChoice::Device(address) => session::run_device(
+        DeviceChoice::Device(address) => session::run_device_asking(
             &dir,
             &req,
             args.device_timeout,
             session::sim_participant,
             Some(&interrupt),
             &mut |_, _| {},
+            &mut Terminal::default(),
         )
-        .map_err(|e| match e {
-            SessionError::Results(_)
-            | SessionError::NothingToResume { .. }
-            | SessionError::Ended { .. }
-            | SessionError::Device(..)
-            | SessionError::WrongDevice(..)
-            | SessionError::Lsl(_) => e.into(),
-            e => device_failure(&format!("--device {address}"), e.to_string()),
-        }),
+        .map_err(|e| device_run_failure(address, e)),
     }?;
     if outcome.torn_bytes > 0 {
         say(&format!(
@@ -733,6 +726,61 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
             .unwrap_or_default(),
         outcome.csv.display()
     ))
+}
+
+/// How a run on a device failed, as the command line says it: a device
+/// the run could not ride out is exit 3, its line naming the device.
+fn device_run_failure(address: &crate::device::Address, e: SessionError) -> Failure {
+    match e {
+        SessionError::Results(_)
+        | SessionError::NothingToResume { .. }
+        | SessionError::Ended { .. }
+        | SessionError::Device(..)
+        | SessionError::WrongDevice(..)
+        | SessionError::Lsl(_) => e.into(),
+        e => device_failure(&format!("--device {address}"), e.to_string()),
+    }
+}
+
+/// What a device asks of the experimenter, put on the terminal: the
+/// request on standard error, Enter on standard input confirms. No one can
+/// be asked where standard input is no terminal.
+#[derive(Default)]
+struct Terminal {
+    /// A line read from standard input, by a thread that reads them as
+    /// they come (started at the first request).
+    lines: Option<std::sync::mpsc::Receiver<()>>,
+}
+
+impl session::Ask for Terminal {
+    fn ask(&mut self, request: crate::device::haptic::Request, within_s: f64) -> bool {
+        use std::io::{BufRead as _, IsTerminal as _};
+        if !std::io::stdin().is_terminal() {
+            return false;
+        }
+        let lines = self.lines.get_or_insert_with(|| {
+            let (tx, rx) = std::sync::mpsc::channel();
+            std::thread::spawn(move || {
+                for line in std::io::stdin().lock().lines() {
+                    if line.is_err() || tx.send(()).is_err() {
+                        break;
+                    }
+                }
+            });
+            rx
+        });
+        // Lines typed before the request answer nothing.
+        while lines.try_recv().is_ok() {}
+        say(&format!(
+            "device: {}; press Enter when it is there (within {within_s} s)",
+            request.ask()
+        ));
+        true
+    }
+
+    fn confirmed(&mut self) -> bool {
+        self.lines.as_ref().is_some_and(|l| l.try_recv().is_ok())
+    }
 }
 
 /// Installs the SIGINT/SIGTERM/SIGHUP handlers a session's run reads
@@ -1281,5 +1329,43 @@ fn render_plan(model: &str, scenario: &str, sets: &[String]) -> Result<RenderPla
             })
         }
         _ => Err(errors),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Issue 63: a run whose haptic loop died, or whose device kept
+    /// failing, exits 3 with one line naming the device.
+    #[test]
+    fn a_device_failure_is_exit_3_with_one_line_naming_the_device() {
+        let address = crate::device::Address::parse("haply2diy:/dev/ttyACM0").unwrap();
+        for failure in [
+            session::DeviceFailure::LoopDied("its thread panicked: oops".into()),
+            session::DeviceFailure::Faults {
+                trial: 4,
+                presentations: 3,
+                fault: "device lost".into(),
+            },
+        ] {
+            let f = device_run_failure(
+                &address,
+                SessionError::DeviceFailed {
+                    failure,
+                    completed: 2,
+                },
+            );
+            let line = f.errors[0].to_string();
+            assert_eq!((f.code, f.errors.len()), (super::super::EXIT_DEVICE, 1));
+            assert!(
+                line.starts_with("--device haply2diy:/dev/ttyACM0: "),
+                "{line}"
+            );
+            assert!(
+                line.ends_with("(2 trials completed are in the log)"),
+                "{line}"
+            );
+        }
     }
 }

@@ -618,7 +618,10 @@ impl From<SessionError> for Failure {
             SessionError::Lost { .. }
             | SessionError::NeverConnected { .. }
             | SessionError::OffTrack { .. }
-            | SessionError::Loop(_) => device_failure("--device", e.to_string()),
+            | SessionError::Loop(_)
+            | SessionError::DeviceFailed { .. }
+            | SessionError::NotConfirmed { .. }
+            | SessionError::NotBackOnTrack { .. } => device_failure("--device", e.to_string()),
             SessionError::Lsl(message) => Failure {
                 code: EXIT_FAILURE,
                 errors: vec![UserError::new("--lsl", message)],
