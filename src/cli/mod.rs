@@ -188,7 +188,14 @@ enum Command {
     /// `PATH`: frictionlab's own board (the simulated apparatus), silent
     /// until a host says Hello, serving host after host until stopped.
     /// `haply2diy:PATH`: a Haply 2DIY board (its firmware's protocol) on a
-    /// pantograph, powered up at the vendor's calibration pose.
+    /// pantograph, powered up at the vendor's calibration pose; a reset
+    /// leaves the handle where it is. For tests, SIGUSR1 makes the board
+    /// lose its setup (as one that restarted: torque frames answered with
+    /// its id alone, the handle where it is), and SIGUSR1 again, while it
+    /// is not set up, puts the handle at its calibration pose (as the
+    /// experimenter is asked to); SIGUSR2 takes its port away for 0.5 s
+    /// and brings it back, the board still set up (a USB replug it rode
+    /// out).
     /// `inverse3[:HOST:PORT]`: a Haply Inverse Service (default
     /// 127.0.0.1:10001) with one Inverse3 on it.
     DeviceEmulator {
@@ -605,7 +612,10 @@ impl From<SessionError> for Failure {
             SessionError::Lost { .. }
             | SessionError::NeverConnected { .. }
             | SessionError::OffTrack { .. }
-            | SessionError::Loop(_) => device_failure("--device", e.to_string()),
+            | SessionError::Loop(_)
+            | SessionError::DeviceFailed { .. }
+            | SessionError::NotConfirmed { .. }
+            | SessionError::NotBackOnTrack { .. } => device_failure("--device", e.to_string()),
             SessionError::Lsl(message) => Failure {
                 code: EXIT_FAILURE,
                 errors: vec![UserError::new("--lsl", message)],

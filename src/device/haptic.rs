@@ -29,7 +29,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use super::backend::{Backend, LinkState, MAX_AXES, Vector};
-pub use super::backend::{Mode, Tick, UNKNOWN_RENDER};
+pub use super::backend::{Mode, Request, Tick, UNKNOWN_RENDER};
 use super::track::Track;
 use crate::friction::{ForceLimit, Input, ModelParams, StepParams};
 use crate::hand::HandDrive;
@@ -54,6 +54,8 @@ pub enum ToLoop {
     /// From now on, offer each connected tick to this sink, on the loop's
     /// thread (whoever asked: the loop knows no reader).
     Offer(Offer),
+    /// The experimenter did what the device asked (a tick's `request`).
+    Confirm,
 }
 
 /// Whoever wants the loop's ticks as they happen: called on the loop's
@@ -210,6 +212,29 @@ impl HapticLoop {
     /// The next tick the loop reported, if any.
     pub fn recv(&mut self) -> Option<Tick> {
         self.from_loop.pop().ok()
+    }
+
+    /// Whether the loop's thread has ended without being told to stop
+    /// (it panicked, or returned): why, said once (later calls, and
+    /// [`HapticLoop::stop`] after it, find no thread).
+    pub fn died(&mut self) -> Option<String> {
+        if self.stop.load(Ordering::Relaxed)
+            || !self.handle.as_ref().is_some_and(JoinHandle::is_finished)
+        {
+            return None;
+        }
+        let handle = self.handle.take()?;
+        Some(match handle.join() {
+            Ok(_) => "its thread returned while not told to stop".to_owned(),
+            Err(panic) => {
+                let what = panic
+                    .downcast_ref::<&str>()
+                    .map(|s| (*s).to_owned())
+                    .or_else(|| panic.downcast_ref::<String>().cloned())
+                    .unwrap_or_else(|| "no message".to_owned());
+                format!("its thread panicked: {what}")
+            }
+        })
     }
 
     /// Stops the loop (force zeroed) and returns its statistics.
@@ -377,6 +402,7 @@ fn run(
                 }
                 ToLoop::Hand(drive) => device.drive_hand(&drive),
                 ToLoop::Offer(offer) => sink = Some(offer),
+                ToLoop::Confirm => device.confirm(now),
             }
         }
 
@@ -438,6 +464,7 @@ fn run(
                     limit_n: renderer.limit().newtons(),
                 },
                 device_limit_n,
+                request: device.request(),
                 ..Tick::on_axis(now, motion.along, motion.v, along_n, vibration)
             },
         );

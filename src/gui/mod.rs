@@ -141,6 +141,8 @@ pub(crate) enum Command {
     Close,
     /// Acknowledge instructions, a break or a prompt.
     Continue,
+    /// The experimenter did what the device asked.
+    ConfirmDevice,
     /// A typed magnitude.
     Magnitude(String),
     /// A paired-comparison answer.
@@ -281,6 +283,7 @@ impl FrictionlabApp {
                 Ok(())
             }
             Command::Continue => self.with_live(|l| l.feed(Feed::Input(Input::Continue))),
+            Command::ConfirmDevice => self.with_live(|l| l.feed(Feed::Confirm)),
             Command::Magnitude(text) => {
                 let r =
                     self.with_live(|l| l.feed(Feed::Input(Input::Answer(Answer::Magnitude(text)))));

@@ -13,6 +13,20 @@ use frictionlab::settings;
 
 pub mod window;
 
+/// `TTYPort::pair` is not thread-safe (it reads the new pseudo-terminal's
+/// name from a static buffer: two at once can get each other's): the tests
+/// of a binary that make pairs take turns here. (Issue 63: a 2DIY test's
+/// session once read another test's noise.)
+pub static PTY: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// A new pseudo-terminal pair (master, slave), made in turn ([`PTY`]).
+pub fn pty_pair() -> (serialport::TTYPort, serialport::TTYPort) {
+    let _turn = PTY
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    serialport::TTYPort::pair().unwrap()
+}
+
 /// Default parameters of `model` with `overrides` applied.
 pub fn model(name: &str, overrides: &[(&str, &str)]) -> ModelParams {
     let base = ModelParams::default_for(name).expect("known model");

@@ -5,7 +5,7 @@
 //! (`src/session/headless.rs`'s test, which asks for `--device
 //! loopback:test` by name), and no module names it.
 
-use super::backend::{Backend, Capabilities, LinkState, Reading, Vector};
+use super::backend::{Backend, Capabilities, LinkState, Reading, Request, Vector};
 use super::sim::Apparatus;
 use crate::hand::HandDrive;
 use frictionlab_core::plant::Rig;
@@ -17,27 +17,48 @@ pub const KIND: super::Kind = super::Kind {
     target: "NAME",
     bare: false,
     check: |_| Ok(()),
-    open: |_, _| Ok(Box::new(Loopback::new())),
+    open: |target, _| Ok(Box::new(Loopback::new(target))),
     find: Vec::new,
 };
 
 /// Physics step, s.
 const STEP_S: f64 = 0.0005;
 
+/// How a loopback device behaves (its target).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Behaviour {
+    Steady,
+    Flaps,
+    Dies,
+    Asks,
+}
+
 struct Loopback {
     rig: Rig,
     force_n: f64,
     t_s: f64,
     x_m: f64,
+    behaviour: Behaviour,
+    /// It asks for its calibration pose (`asks`), until confirmed.
+    asking: bool,
+    confirmed: bool,
 }
 
 impl Loopback {
-    fn new() -> Self {
+    fn new(target: &str) -> Self {
         Loopback {
             rig: Rig::new(Apparatus::default(), 0.4),
             force_n: 0.0,
             t_s: 0.0,
             x_m: 0.0,
+            behaviour: match target {
+                "flaps" => Behaviour::Flaps,
+                "dies" => Behaviour::Dies,
+                "asks" => Behaviour::Asks,
+                _ => Behaviour::Steady,
+            },
+            asking: false,
+            confirmed: false,
         }
     }
 }
@@ -60,8 +81,17 @@ impl Backend for Loopback {
             self.x_m = self.rig.step(STEP_S, |_| force).x_m;
             self.t_s += STEP_S;
         }
+        let link = match self.behaviour {
+            Behaviour::Flaps if now_s % 0.6 >= 0.45 => LinkState::Lost,
+            Behaviour::Dies if now_s >= 0.3 => panic!("the loopback device's loop died, as asked"),
+            Behaviour::Asks if now_s >= 1.0 && !self.confirmed => {
+                self.asking = true;
+                LinkState::Lost
+            }
+            _ => LinkState::Connected,
+        };
         Reading {
-            link: LinkState::Connected,
+            link,
             position_m: [self.x_m, 0.0, 0.0],
             button: false,
             watchdog: false,
@@ -79,5 +109,14 @@ impl Backend for Loopback {
 
     fn drive_hand(&mut self, drive: &HandDrive) {
         self.rig.drive(*drive);
+    }
+
+    fn request(&self) -> Option<Request> {
+        self.asking.then_some(Request::CalibrationPose)
+    }
+
+    fn confirm(&mut self, _now_s: f64) {
+        self.asking = false;
+        self.confirmed = true;
     }
 }
