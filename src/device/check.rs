@@ -428,6 +428,8 @@ pub struct Bringup {
     /// The + end's reading, m.
     plus_end_m: f64,
     pulses: Vec<Pulsed>,
+    /// Since when the device has not answered, once it had, s.
+    lost_since_s: Option<f64>,
 }
 
 impl Bringup {
@@ -449,6 +451,7 @@ impl Bringup {
             recent: VecDeque::new(),
             plus_end_m: f64::NAN,
             pulses: Vec::new(),
+            lost_since_s: None,
         }
     }
 
@@ -600,6 +603,32 @@ impl Bringup {
         }
     }
 
+    /// The device stopped answering for longer than the timeout: the
+    /// step under way fails, and the check ends.
+    fn lost(&mut self, for_s: f64) {
+        let step = match self.phase {
+            Phase::Timing { .. } => StepName::Timing,
+            Phase::Asked(Ask::PlusEnd { .. } | Ask::MinusEnd { .. }) => StepName::Encoder,
+            Phase::Asked(Ask::LetGo) | Phase::Settle { .. } | Phase::Pulse { .. } => {
+                StepName::ForceDirection
+            }
+            Phase::Asked(Ask::HoldOff) | Phase::Wall { .. } => StepName::Wall,
+            Phase::Connecting { .. } | Phase::Done => return,
+        };
+        let report = StepReport::new(
+            step,
+            Verdict::Fail,
+            &[("lost_for_s", for_s)],
+            &format!(
+                "the device answers throughout (lost at most {} s)",
+                self.options.timeout_s
+            ),
+        )
+        .because("the device stopped answering");
+        self.done(report);
+        self.finish();
+    }
+
     /// Takes one of the loop's ticks.
     #[expect(
         clippy::too_many_lines,
@@ -617,6 +646,17 @@ impl Bringup {
                 .is_some_and(|(t, ..)| now - t > SETTLED_S.max(RECENT_S))
             {
                 self.recent.pop_front();
+            }
+        }
+        if !matches!(self.phase, Phase::Connecting { .. } | Phase::Done) {
+            if connected {
+                self.lost_since_s = None;
+            } else {
+                let since = *self.lost_since_s.get_or_insert(now);
+                if now - since > self.options.timeout_s {
+                    self.lost(now - since);
+                    return;
+                }
             }
         }
         match &mut self.phase {
@@ -1271,6 +1311,43 @@ mod tests {
         assert!(b.finished() && !b.passed());
         assert_eq!(b.results()[0].verdict, Verdict::Fail);
         assert!(b.results()[0].line().contains("did not answer"));
+    }
+
+    /// A device lost mid-check (here, during the force pulse) ends the
+    /// check after the timeout, the step under way failed: the check never
+    /// waits for ever.
+    #[test]
+    fn a_device_lost_mid_check_fails_the_step_under_way_after_the_timeout() {
+        let options = Options {
+            timeout_s: 0.5,
+            duration_s: 0.1,
+        };
+        let mut b = Bringup::new(options, stated(1), Track::axis());
+        let mut t = 0.0;
+        let mut feed = |b: &mut Bringup, ticks: u32, link: LinkState| {
+            for _ in 0..ticks {
+                t += 0.001;
+                let mut k = tick(t, 0.0, 0.0);
+                k.link = link;
+                b.handle(&k);
+            }
+        };
+        feed(&mut b, 200, LinkState::Connected);
+        for _ in 0..3 {
+            b.confirm(); // + end, - end, let go
+        }
+        feed(&mut b, 300, LinkState::Connected);
+        assert!(!b.finished(), "pushing");
+        feed(&mut b, 400, LinkState::Lost);
+        assert!(!b.finished(), "lost for less than the timeout");
+        feed(&mut b, 200, LinkState::Lost);
+        assert!(b.finished());
+        let last = b.results().last().unwrap();
+        assert_eq!(
+            (last.step, last.verdict),
+            (StepName::ForceDirection, Verdict::Fail)
+        );
+        assert!(last.line().contains("stopped answering"), "{}", last.line());
     }
 
     #[test]
