@@ -241,6 +241,50 @@ fn a_device_that_never_answers_starts_no_session_and_exits_3() {
     drop(slave);
 }
 
+/// Issue 63: `run` holds the protocol against the connected device's
+/// travel before the first trial: our board (built as seed 002's
+/// apparatus, ±16 mm) refuses a Fitts level at ±25 mm, exit 2, naming the
+/// level, the device and its travel, and nothing is written.
+#[test]
+fn a_protocol_beyond_the_boards_travel_is_refused_before_the_first_trial() {
+    let dir = tempfile::tempdir().unwrap();
+    let dev = dir.path().join("dev");
+    let emu = common::emulator(&dev);
+    let out = dir.path().join("results");
+    let wide = format!(
+        "{}/tests/fixtures/fitts-wide.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let o = bin()
+        .args([
+            "run",
+            &wide,
+            "--participant",
+            "dev",
+            "--responder",
+            "sim",
+            "--out",
+        ])
+        .arg(&out)
+        .arg("--device")
+        .arg(&dev)
+        .output()
+        .unwrap();
+    unplug(emu, &dev);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    println!("exit {:?}: {stderr}", o.status.code());
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert_eq!(
+        stderr,
+        format!(
+            "error: {wide}: design.levels[1]: targets at ±25 mm, 4 mm wide reach -27.0 to 27.0 mm \
+             along the track, beyond the device {}'s travel of -16.0 to 16.0 mm\n",
+            dev.display()
+        )
+    );
+    assert!(!out.exists(), "nothing written");
+}
+
 #[test]
 fn a_device_path_that_is_not_a_serial_port_is_bad_input() {
     let dir = tempfile::tempdir().unwrap();

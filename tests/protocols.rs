@@ -281,6 +281,75 @@ fn validate_exits_2_with_file_path_and_reason() {
     assert_eq!(o.status.code(), Some(0));
 }
 
+/// Issue 63: a protocol whose positions lie beyond the device's travel is
+/// refused by `validate`, `simulate` and `run` against the simulated
+/// apparatus's ±16 mm, each with exit 2, the level, where it reaches and
+/// the travel, and nothing written. Before, a Fitts level at ±25 mm passed
+/// and its simulated participants made 2 to 4 of 20 taps in 120 s.
+#[test]
+fn a_protocol_beyond_the_devices_travel_is_refused_naming_the_level_and_the_travel() {
+    let dir = tempfile::tempdir().unwrap();
+    let wide = format!(
+        "{}/tests/fixtures/fitts-wide.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let out = dir.path().join("results");
+    let expected = format!(
+        "error: {wide}: design.levels[1]: targets at ±25 mm, 4 mm wide reach -27.0 to 27.0 mm \
+         along the track, beyond the simulated apparatus's travel of -16.0 to 16.0 mm\n"
+    );
+    let out_arg = out.to_str().unwrap();
+    for args in [
+        vec!["validate", &wide],
+        vec![
+            "simulate",
+            &wide,
+            "--participants",
+            "2",
+            "--seed",
+            "1",
+            "--out",
+            out_arg,
+        ],
+        vec![
+            "run",
+            &wide,
+            "--participant",
+            "p1",
+            "--responder",
+            "sim",
+            "--out",
+            out_arg,
+        ],
+    ] {
+        let o = Command::new(env!("CARGO_BIN_EXE_frictionlab"))
+            .args(&args)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        println!("{}: exit {:?}: {stderr}", args[0], o.status.code());
+        assert_eq!(o.status.code(), Some(2), "{}: {stderr}", args[0]);
+        assert_eq!(stderr, expected, "{}", args[0]);
+        assert!(!out.exists(), "{}: nothing written", args[0]);
+    }
+    // The level that fits, alone, passes.
+    let (text, _) = shipped("fitts-quick");
+    let mut v: Value = serde_json::from_str(&text).unwrap();
+    v["design"]["levels"] = json!([{"amplitude_m": 0.028, "width_m": 0.004}]);
+    let edge = dir.path().join("edge.json");
+    std::fs::write(&edge, v.to_string()).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_frictionlab"))
+        .args(["validate", edge.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "targets reaching ±16 mm exactly fit: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
 fn order(p: &Protocol, seed: u64, participant: u32) -> Vec<String> {
     resolve(p, seed, participant)
         .trials

@@ -22,11 +22,47 @@ fn load_protocol(path: &Path) -> Result<(Protocol, Vec<u8>), Vec<UserError>> {
     load::read(path)
 }
 
+/// The problems (`problems`: places under the protocol's root) of the
+/// protocol file at `path`, placed in it.
+fn in_file(path: &Path, problems: Vec<UserError>) -> Vec<UserError> {
+    problems
+        .into_iter()
+        .map(|p| UserError::new(format!("{}: {}", path.display(), p.place), p.message))
+        .collect()
+}
+
+/// Where the protocol at `path` asks for positions beyond the simulated
+/// apparatus's travel (issue 63), placed in the file.
+fn beyond_simulated_travel(protocol: &Protocol, path: &Path) -> Vec<UserError> {
+    in_file(
+        path,
+        crate::protocol::check::beyond_travel(
+            protocol,
+            crate::device::sim::Apparatus::default().travel_m(),
+            session::SIMULATED_APPARATUS,
+        ),
+    )
+}
+
+/// A session's error, with the places of a protocol it does not fit put
+/// in its file at `path`.
+fn session_failure(path: &Path, e: SessionError) -> Failure {
+    match e {
+        SessionError::BeyondTravel(problems) => in_file(path, problems).into(),
+        e => e.into(),
+    }
+}
+
 pub(super) fn validate_command(paths: &[PathBuf]) -> Result<(), Failure> {
     let mut errors = Vec::new();
     for path in paths {
         match load_protocol(path) {
             Ok((p, _)) => {
+                let beyond = beyond_simulated_travel(&p, path);
+                if !beyond.is_empty() {
+                    errors.extend(beyond);
+                    continue;
+                }
                 emit(&format!(
                     "ok: {}: {} '{}', {}\n",
                     path.display(),
@@ -656,7 +692,7 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
     let outcome = match &args.device {
         DeviceChoice::Simulated => {
             session::run_simulated(&dir, &req, Some(&interrupt), &mut |_, _| {})
-                .map_err(Failure::from)
+                .map_err(|e| session_failure(&args.protocol, e))
         }
         DeviceChoice::Device(address) => session::run_device(
             &dir,
@@ -672,7 +708,8 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
             | SessionError::Ended { .. }
             | SessionError::Device(..)
             | SessionError::WrongDevice(..)
-            | SessionError::Lsl(_) => e.into(),
+            | SessionError::BeyondTravel(_)
+            | SessionError::Lsl(_) => session_failure(&args.protocol, e),
             e => device_failure(&format!("--device {address}"), e.to_string()),
         }),
     }?;
@@ -813,6 +850,10 @@ pub(super) fn simulate_command(args: &SimulateArgs) -> Result<(), Failure> {
             return Err(errors.into());
         }
     };
+    let beyond = beyond_simulated_travel(&protocol, &args.protocol);
+    if !beyond.is_empty() {
+        return Err(beyond.into());
+    }
     if let (Some(pop), Some(file)) = (&population, &args.population) {
         let problems = preference_problems(pop, &protocol, file);
         if !problems.is_empty() {

@@ -696,6 +696,7 @@ impl From<SessionError> for Failure {
                 format!("{device}: {what}; no session was started"),
             )]
             .into(),
+            SessionError::BeyondTravel(problems) => problems.into(),
             SessionError::Lost { .. }
             | SessionError::NeverConnected { .. }
             | SessionError::OffTrack { .. }

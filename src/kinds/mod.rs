@@ -40,7 +40,7 @@ use crate::analysis::{AnalysedKinds, AnalysisEntry, KindAnalysis};
 use crate::protocol::check::ValueChecks;
 use crate::protocol::engine::{self, Input, TrialSource};
 use crate::protocol::kind::{
-    Block, Holds, KindInfo, Kinds, LiveTrial, Next, Quality, StudyKind, TrackAnswers,
+    Block, Holds, KindInfo, Kinds, LiveTrial, Next, Quality, Reach, StudyKind, TrackAnswers,
 };
 use crate::protocol::load::Walk;
 use crate::protocol::{self, plan};
@@ -319,6 +319,12 @@ macro_rules! kinds {
             fn preferable(design: &Design) -> Option<Vec<&str>> {
                 match design {
                     $($(#[cfg($cfg)])? Design::$variant(d) => <$module::$kind as StudyKind>::preferable(d),)*
+                }
+            }
+
+            fn reach(design: &Design) -> Vec<Reach> {
+                match design {
+                    $($(#[cfg($cfg)])? Design::$variant(d) => <$module::$kind as StudyKind>::reach(d),)*
                 }
             }
 

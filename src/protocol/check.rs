@@ -162,3 +162,36 @@ pub(super) fn check<K: Kinds>(p: &Protocol<K>, errors: &mut Vec<Problem>) {
         },
     );
 }
+
+/// The stretches of `protocol`'s design that lie beyond a device's travel
+/// `travel_m` (m from its track's origin, lowest and highest), each a
+/// problem at its JSON path naming where it reaches and the travel of
+/// `device` (`the simulated apparatus`): a protocol the device cannot
+/// perform (issue 63: a Fitts level at ±25 mm on the simulated
+/// apparatus's ±16 mm ran, and its simulated participants made 2 to 4 of
+/// 20 taps in 120 s).
+#[must_use]
+pub fn beyond_travel<K: Kinds>(
+    protocol: &Protocol<K>,
+    travel_m: [f64; 2],
+    device: &str,
+) -> Vec<Problem> {
+    let mm = |x: f64| format!("{:.1}", x * 1e3);
+    K::reach(&protocol.design)
+        .into_iter()
+        .filter(|r| r.span_m[0] < travel_m[0] || r.span_m[1] > travel_m[1])
+        .map(|r| {
+            Problem::new(
+                format!("design.{}", r.path),
+                format!(
+                    "{} reach {} to {} mm along the track, beyond {device}'s travel of {} to {} mm",
+                    r.what,
+                    mm(r.span_m[0]),
+                    mm(r.span_m[1]),
+                    mm(travel_m[0]),
+                    mm(travel_m[1])
+                ),
+            )
+        })
+        .collect()
+}

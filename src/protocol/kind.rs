@@ -113,6 +113,9 @@ pub trait Kinds: Debug + Clone + Copy + PartialEq + Send + Sync + 'static {
     /// of two renderings is nearer to a real surface; `None` when the
     /// design never asks it.
     fn preferable(design: &Self::Design) -> Option<Vec<&str>>;
+    /// The stretches of the track a design asks the hand to reach
+    /// ([`StudyKind::reach`]).
+    fn reach(design: &Self::Design) -> Vec<Reach>;
 
     /// The haptic loop rate a trial's models need, Hz.
     fn loop_rate_hz(trial: &Self::Trial) -> f64;
@@ -156,6 +159,21 @@ pub trait Kinds: Debug + Clone + Copy + PartialEq + Send + Sync + 'static {
             .find(|k| k.name == kind)
             .map(|k| k.columns)
     }
+}
+
+/// A stretch of the track a design asks the hand to reach (issue 63), in
+/// metres from the track's origin, where every device renders along its
+/// track: every one must lie within the device's travel.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Reach {
+    /// Where the design asks for it: its JSON path under `design`
+    /// (`levels[2]`).
+    pub path: String,
+    /// What is there, for the message (`targets at ±25 mm with their 4 mm
+    /// width`).
+    pub what: String,
+    /// Its lowest and highest position, m.
+    pub span_m: [f64; 2],
 }
 
 /// A kind's name and data-CSV columns.
@@ -254,6 +272,14 @@ pub trait StudyKind: Sized + 'static {
     /// `None` (the default) for a kind that never asks it.
     fn preferable(_design: &Self::Design) -> Option<Vec<&str>> {
         None
+    }
+
+    /// The stretches of the track the design asks the hand to reach (a
+    /// Fitts level's targets, a slide's travel), each of which must lie
+    /// within the device's travel (issue 63); by default none (the hand
+    /// explores where it is).
+    fn reach(_design: &Self::Design) -> Vec<Reach> {
+        Vec::new()
     }
 
     /// The conditions of a trial a set preference may name (see

@@ -315,6 +315,15 @@ impl Device {
         }
     }
 
+    /// The stretch of the track the device reaches, m from its origin.
+    pub(super) fn travel_m(&self) -> [f64; 2] {
+        match self {
+            Device::Sim { device, .. } => device.apparatus().travel_m(),
+            Device::Port(port) => port.travel_m,
+            Device::Stopped { .. } => [0.0; 2],
+        }
+    }
+
     /// The device's axes (1 for the simulated device).
     pub(super) fn axes(&self) -> usize {
         match self {

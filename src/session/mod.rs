@@ -134,6 +134,9 @@ use device::Device;
 use renders::Renders;
 use view::Trace;
 
+/// How messages name the simulated apparatus.
+pub const SIMULATED_APPARATUS: &str = "the simulated apparatus";
+
 /// The abort reason of a trial ended by a signal (issue 31).
 pub const INTERRUPTED: &str = "interrupted";
 
@@ -209,6 +212,10 @@ pub enum SessionError {
         /// The timeout, s.
         timeout_s: f64,
     },
+    /// The protocol asks for positions beyond the device's travel (each
+    /// at its JSON path); nothing written (issue 63).
+    #[error("{}", .0.iter().map(ToString::to_string).collect::<Vec<_>>().join("; "))]
+    BeyondTravel(Vec<crate::problem::Problem>),
     /// The haptic loop could not start.
     #[error("cannot start the haptic loop: {0}")]
     Loop(std::io::Error),
@@ -424,6 +431,20 @@ impl<R: Responder> Session<R> {
         let device_label = device.label();
         let simulated = matches!(device, DeviceChoice::Simulated);
         let device = Device::open(device, rate_hz, responder.hand_mass_kg())?;
+        // Every position the protocol asks for within the device's travel,
+        // before anything is written (issue 63).
+        let beyond = crate::protocol::check::beyond_travel(
+            &log.header().protocol,
+            device.travel_m(),
+            &if simulated {
+                SIMULATED_APPARATUS.to_owned()
+            } else {
+                format!("the device {device_label}")
+            },
+        );
+        if !beyond.is_empty() {
+            return Err(SessionError::BeyondTravel(beyond));
+        }
         log.set_device_settings(device.settings());
         if let Some(limits) = device.sim_limits() {
             log.set_device_limits(limits);

@@ -2,15 +2,26 @@
 //! frictionlab's emulated Inverse Service and Inverse3 driver: the crate's
 //! `HaplyDevice` connects to the emulator, reads its state and sends forces
 //! that the emulated device renders; every message our driver and our
-//! emulator send parses with the crate's wire types.
+//! emulator send parses with the crate's wire types. Issue 63: the crate's
+//! listing calls list the emulated Inverse3 by its id, over HTTP and over
+//! the WebSocket, and every HTTP route of the crate's `InverseHttpClient`
+//! is answered in a shape its own types read.
 #![allow(clippy::unwrap_used, clippy::expect_used, reason = "tests")]
 
 use std::net::TcpListener;
 use std::time::Duration;
 
 use frictionlab::device::inverse3::{PROFILE, emulator, messages};
-use haply::device_model::{ServiceData, ServiceState, Vec3D};
-use haply::{ForceInput, HaplyDevice, ServiceMsg};
+use haply::device_model::{
+    Config, CoordinateSystem, DeviceType, GravityCompensation, Handedness, HomeReturn, ServiceData,
+    ServiceState, TorqueScaling, Vec3D,
+};
+use haply::http::InverseHttpClient;
+use haply::{
+    DampingConfig, ForceGateConfig, ForceInput, HaplyDevice, MountConfig, NavigationConfigure,
+    PresetConfig, ProfileConfig, SdfCommand, SdfCommandMode, SdfHfxObject, SdfObjectList,
+    ServiceMsg, SessionConfigure, SetTransformCmd,
+};
 
 /// Our emulated service on a free loopback port, in a thread, in lockstep
 /// (1 ms of its physics per client message), so what the client reads
@@ -195,5 +206,298 @@ fn every_message_our_driver_and_emulator_send_parses_with_the_crates_types() {
     assert_eq!((f.x, f.y, f.z), (0.25, -1.0, 2.0));
     println!(
         "3 driver messages parsed as ServiceMsg, the inventory as ServiceData, an update as ServiceState"
+    );
+}
+
+/// The ids of `configs`, as the crate gives them (`Config::id`).
+fn ids(configs: &[Config]) -> Vec<&str> {
+    configs.iter().map(Config::id).collect()
+}
+
+/// The one emulated Inverse3, by its id, as the crate's `Config` holds it.
+fn assert_the_emulated_inverse3(what: &str, configs: &[Config]) {
+    assert_eq!(ids(configs), [emulator::DEVICE_ID], "{what}");
+    let Config::DeviceConfig(c) = &configs[0] else {
+        panic!("{what}: not an Inverse3's config: {configs:?}");
+    };
+    assert_eq!(c.device_info.id, emulator::DEVICE_ID, "{what}");
+    assert_eq!(c.device_info.device_type, DeviceType::Inverse3, "{what}");
+}
+
+/// A `HaplyDevice` on `address`, its inventory read (the WebSocket's first
+/// frame), its session's profile `profile` configured.
+async fn connected(address: &str, profile: &str) -> HaplyDevice {
+    let mut device = HaplyDevice::new(&format!("http://{address}"), &format!("ws://{address}/"))
+        .await
+        .expect("the crate's HaplyDevice connects");
+    let configure = SessionConfigure {
+        profile: Some(ProfileConfig {
+            name: profile.into(),
+            required_version: None,
+        }),
+        ..SessionConfigure::default()
+    };
+    device
+        .configure_session(configure, Some(true))
+        .await
+        .unwrap();
+    for _ in 0..200 {
+        let state = device.read_state().await.unwrap();
+        if state.inverse3.first().is_some_and(|d| d.config.is_some()) {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    device
+}
+
+/// Issue 63: `list_devices` (HTTP `GET /devices`) listed nothing, as the
+/// emulator answered 404, and `get_devices()` (the WebSocket's inventory)
+/// gave `[""]`, as the inventory's `config` had no `id`. Every listing call
+/// of the crate now lists the emulated Inverse3 by its id.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue_63_the_crates_listing_calls_list_the_emulated_inverse3_by_its_id() {
+    let address = service();
+    let device = connected(&address, "issue-63").await;
+    let listed = device.list_devices().await.expect("list_devices");
+    let over_ws = device.get_devices().await.expect("get_devices");
+    println!(
+        "list_devices: {:?}; get_devices (WebSocket): {:?}",
+        ids(&listed),
+        ids(&over_ws)
+    );
+    assert_the_emulated_inverse3("list_devices", &listed);
+    assert_the_emulated_inverse3("get_devices", &over_ws);
+    let info = device
+        .get_device_info(emulator::DEVICE_ID)
+        .await
+        .expect("get_device_info finds the device");
+    assert_eq!(info.id(), emulator::DEVICE_ID);
+    let http = InverseHttpClient::new(&format!("http://{address}"));
+    assert_the_emulated_inverse3("get_devices", &http.get_devices().await.unwrap());
+    for selector in [":0", ":-1", ":issue-63:0"] {
+        let scoped = http.get_devices_for_session(selector).await.unwrap();
+        assert_the_emulated_inverse3(selector, &scoped);
+    }
+    assert!(
+        http.get_devices_for_session(":1").await.unwrap().is_empty(),
+        "a session that does not exist lists nothing"
+    );
+    // What the listings hold is the inventory the WebSocket gave.
+    let (Config::DeviceConfig(a), Config::DeviceConfig(b)) = (&listed[0], &over_ws[0]) else {
+        unreachable!("checked above");
+    };
+    assert_eq!(a, b);
+}
+
+/// Issue 63: each HTTP route of the crate's `InverseHttpClient`, called
+/// through the crate: the reads give the emulated Inverse3's documented
+/// values in the crate's own types; the changes are refused with the
+/// service's error envelope (the crate's `ApiResponse`), and change nothing.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue_63_each_route_the_crate_calls_parses_with_its_own_types() {
+    let address = service();
+    let device = connected(&address, "peer").await;
+    let http = InverseHttpClient::new(&format!("http://{address}"));
+    let id = emulator::DEVICE_ID;
+    let s = Some(":peer:0");
+
+    // System.
+    assert_eq!(
+        http.get_version().await.unwrap().project_version,
+        emulator::VERSION
+    );
+    let expert = http.get_expert_status().await.expect("GET /expert/status");
+    assert_eq!(expert.detection["inverse3"][0], id);
+    // Sessions: ours, with its profile.
+    let sessions = http.get_sessions().await.expect("GET /sessions");
+    assert_eq!(sessions.session_count, 1);
+    let session_id = sessions.sessions[0].session_id;
+    assert_eq!(
+        device.read_state().await.unwrap().session_id,
+        session_id,
+        "the session the WebSocket states"
+    );
+    let session = http.get_session(session_id).await.unwrap();
+    let profile = session.config.unwrap().profile.unwrap();
+    assert_eq!(profile.name, "peer");
+    assert_eq!(
+        http.get_session_profile(session_id).await.unwrap().name,
+        "peer"
+    );
+    // Settings.
+    let port: u16 = address.rsplit(':').next().unwrap().parse().unwrap();
+    let settings = http.get_settings().await.unwrap();
+    assert_eq!(settings["communication/http/port"], port);
+    let setting = http
+        .get_setting("communication/websocket/port")
+        .await
+        .unwrap();
+    assert_eq!(setting["data"], port);
+    // The device's own configuration.
+    assert_eq!(
+        http.get_handedness("inverse3", id).await.unwrap(),
+        Handedness::Right
+    );
+    assert_eq!(
+        http.get_torque_scaling("inverse3", "0").await.unwrap(),
+        TorqueScaling { enabled: true }
+    );
+    assert_eq!(
+        http.get_gravity_compensation("*inverse", id).await.unwrap(),
+        GravityCompensation {
+            enabled: true,
+            scaling_factor: 1.0
+        }
+    );
+    assert_eq!(
+        http.get_home_return("inverse3", id).await.unwrap(),
+        HomeReturn { enabled: false }
+    );
+    let paired = http.get_paired_with("inverse3", id).await.unwrap();
+    assert_eq!(paired.inverse_id.as_deref(), Some(id));
+    assert!(!paired.attached && paired.verse_grip_id.is_none());
+    // The session's view of it.
+    assert_eq!(
+        http.get_basis("inverse3", id, s).await.unwrap().permutation,
+        "XYZ"
+    );
+    let mount = http.get_mount("inverse3", id, s).await.unwrap().transform;
+    let unit = Vec3D {
+        x: 1.0,
+        y: 1.0,
+        z: 1.0,
+    };
+    assert_eq!(
+        (mount.position, mount.scale),
+        (Some(Vec3D::default()), Some(unit))
+    );
+    assert_eq!(
+        http.get_preset("inverse3", id, s).await.unwrap().preset,
+        "defaults"
+    );
+    let transform = http.get_state_transform("inverse3", id, s).await.unwrap();
+    assert_eq!(transform.transform.scale, Some(unit));
+    assert_eq!(
+        http.get_filters_damping("inverse3", id, s)
+            .await
+            .unwrap()
+            .scalar,
+        Some(0.0)
+    );
+    assert_eq!(
+        http.get_filters_force_gate("inverse3", id, s)
+            .await
+            .unwrap()
+            .gain,
+        0.3
+    );
+    let navigation = http.get_navigation("inverse3", id, s).await.unwrap();
+    assert_eq!(navigation.status.unwrap().mode.as_deref(), Some("disabled"));
+    assert!(http.get_sdf("inverse3", id, s).await.unwrap().is_empty());
+    assert!(http.get_all_sdf().await.unwrap().is_empty());
+    let missing = http.get_sdf_by_id("inverse3", id, "wall", s).await;
+    assert!(missing.is_err_and(|e| e.to_string().contains("no SDF effect wall")));
+    // As documented: a session-scoped GET needs a session, a GET one device.
+    let unscoped = http.get_basis("inverse3", id, None).await.unwrap_err();
+    assert!(unscoped.to_string().contains("session"), "{unscoped}");
+    let wildcard = http.get_handedness("inverse3", "*").await.unwrap_err();
+    assert!(wildcard.to_string().contains("wildcard"), "{wildcard}");
+
+    // The changes: each answered with the service's error envelope, which
+    // the crate reads as an error carrying the service's reason.
+    let effect = SdfHfxObject {
+        id: "wall".into(),
+        ..SdfHfxObject::default()
+    };
+    let command = SdfCommand {
+        mode: SdfCommandMode::Set,
+        from_space: None,
+        objects: vec![effect.clone()],
+    };
+    let list = SdfObjectList::default();
+    let basis = CoordinateSystem {
+        permutation: "XZY".into(),
+    };
+    let preset = PresetConfig {
+        preset: "arm_front".into(),
+    };
+    let (i, g) = ("inverse3", "0");
+    // The change's name and what the crate made of the service's answer.
+    macro_rules! refused {
+        ($call:ident($($arg:expr),*)) => {
+            (stringify!($call), http.$call($($arg),*).await)
+        };
+    }
+    let changes = [
+        refused!(set_session_profile(session_id, &ProfileConfig::default())),
+        refused!(delete_session_profile(session_id)),
+        refused!(set_settings(&serde_json::json!({}))),
+        refused!(set_setting(
+            "communication/http/port",
+            &serde_json::json!(1)
+        )),
+        refused!(delete_setting("communication/http/port")),
+        refused!(set_handedness(i, g, &Handedness::Left)),
+        refused!(delete_handedness(i, g)),
+        refused!(set_torque_scaling(i, g, &TorqueScaling::default())),
+        refused!(delete_torque_scaling(i, g)),
+        refused!(set_gravity_compensation(
+            i,
+            g,
+            &GravityCompensation::default()
+        )),
+        refused!(delete_gravity_compensation(i, g)),
+        refused!(set_home_return(i, g, &HomeReturn { enabled: true })),
+        refused!(delete_home_return(i, g)),
+        refused!(set_basis(i, g, s, &basis)),
+        refused!(delete_basis(i, g, s)),
+        refused!(set_mount(i, g, s, &MountConfig::default())),
+        refused!(patch_mount(i, g, s, &MountConfig::default())),
+        refused!(delete_mount(i, g, s)),
+        refused!(set_preset(i, g, s, &preset)),
+        refused!(delete_preset(i, g, s)),
+        refused!(set_state_transform(i, g, s, &SetTransformCmd::default())),
+        refused!(patch_state_transform(i, g, s, &SetTransformCmd::default())),
+        refused!(delete_state_transform(i, g, s)),
+        refused!(set_filters_damping(i, g, s, &DampingConfig::default())),
+        refused!(delete_filters_damping(i, g, s)),
+        refused!(set_filters_force_gate(i, g, s, &ForceGateConfig::default())),
+        refused!(delete_filters_force_gate(i, g, s)),
+        refused!(set_navigation(i, g, s, &NavigationConfigure::default())),
+        refused!(delete_navigation(i, g, s)),
+        refused!(set_paired_with(i, g, &serde_json::json!({}))),
+        refused!(delete_paired_with(i, g)),
+        refused!(set_sdf(i, g, s, &command)),
+        refused!(set_sdf_by_id(i, g, "wall", s, &effect)),
+        refused!(patch_sdf(i, g, s, &command)),
+        refused!(patch_sdf_by_id(i, g, "wall", s, &effect)),
+        refused!(delete_sdf(i, g, s)),
+        refused!(delete_sdf_by_id(i, g, "wall", s)),
+        refused!(set_all_sdf(&list)),
+        refused!(patch_all_sdf(&list)),
+        refused!(delete_all_sdf()),
+        refused!(reset_port("emulated")),
+        refused!(save_configuration(id)),
+    ];
+    for (what, result) in &changes {
+        let error = result.as_ref().expect_err(what).to_string();
+        assert!(
+            error.contains("is not emulated"),
+            "{what}: the service's reason, not a decoding error: {error}"
+        );
+    }
+    // Nothing changed.
+    assert_eq!(
+        http.get_handedness("inverse3", id).await.unwrap(),
+        Handedness::Right
+    );
+    assert_eq!(
+        http.get_session_profile(session_id).await.unwrap().name,
+        "peer"
+    );
+    println!(
+        "every read of the crate's InverseHttpClient answered in its types; {} changes refused with the service's reason",
+        changes.len()
     );
 }

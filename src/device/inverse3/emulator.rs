@@ -1,8 +1,15 @@
 //! An emulated Haply Inverse Service with one Inverse3 on it, on loopback:
 //! the documented messages (service 3.5: the inventory on connecting, one
 //! state frame per client message, `set_cursor_force` applied until the
-//! next message, `GET /version` on the same port), and a hand on the
-//! cursor.
+//! next message), and a hand on the cursor. On the same port, the HTTP
+//! API that Haply's `haply` crate 1.3.1 calls ([`rest`]: `GET /version`,
+//! `GET /devices`, the sessions, settings and the device's configuration,
+//! read-only; anything else 404 with a JSON error body).
+//!
+//! The inventory's `config` holds the keys of the service's documented
+//! example and `id`, the device's id: the crate's `get_devices()` reads a
+//! device's id from there (its `DeviceConfig::id`), and without it gave
+//! `[""]` over the WebSocket (issue 63).
 //!
 //! The physics: along the default track, the simulated apparatus model of
 //! [`Rig`] with the simulated participant's hand (it follows the
@@ -17,10 +24,13 @@
 //! [`HAND_STIFFNESS_N_M`], [`HAND_DAMPING_N_S_M`], [`HAND_REST_ACROSS_M`],
 //! [`HAND_PRESS_M`].
 
+pub mod rest;
+
+use std::collections::BTreeMap;
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
-use std::sync::{Arc, Mutex};
-use std::time::Instant;
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::{Duration, Instant};
 
 use super::messages::{ClientMessage, DeviceFrame, ServiceFrame, State, Status, Vec3};
 use crate::device::miswiring::Miswiring;
@@ -192,46 +202,59 @@ impl Plant {
     /// The state frame: `config` with it in the inventory.
     #[must_use]
     pub fn frame(&self, session_id: u64, inventory: bool) -> ServiceFrame {
-        let now = self.t_s - self.commanded_s <= COMMAND_LASTS_S;
         ServiceFrame {
             session_id,
-            inverse3: vec![DeviceFrame {
-                device_id: DEVICE_ID.into(),
-                config: inventory.then(config),
-                state: State {
-                    cursor_position: Some(Vec3::of(self.position())),
-                    cursor_velocity: Some(Vec3::default()),
-                    current_cursor_force: Some(Vec3::of(if now { self.force_n } else { [0.0; 3] })),
-                    mode: "idle".into(),
-                },
-                status: Status {
-                    calibrated: true,
-                    in_use: true,
-                    power_supply: true,
-                    ready: true,
-                    started: true,
-                },
-            }],
+            inverse3: vec![self.device(inventory)],
+        }
+    }
+
+    /// The Inverse3 in a frame (with its `config` in the inventory).
+    #[must_use]
+    pub fn device(&self, inventory: bool) -> DeviceFrame {
+        let now = self.t_s - self.commanded_s <= COMMAND_LASTS_S;
+        DeviceFrame {
+            device_id: DEVICE_ID.into(),
+            config: inventory.then(config),
+            state: State {
+                cursor_position: Some(Vec3::of(self.position())),
+                cursor_velocity: Some(Vec3::default()),
+                current_cursor_force: Some(Vec3::of(if now { self.force_n } else { [0.0; 3] })),
+                mode: "idle".into(),
+            },
+            status: Status {
+                calibrated: true,
+                in_use: true,
+                power_supply: true,
+                ready: true,
+                started: true,
+            },
         }
     }
 }
 
-/// The emulated device's configuration, as the inventory states it
-/// (the documented example's keys; the filters as the service's defaults
-/// are documented in its example).
+/// The emulated device's configuration, as the inventory and the HTTP API
+/// state it: the keys of the service's documented inventory (3.5: device
+/// info with `device_type` 4, the Inverse3's code; home return off; basis
+/// `XYZ`; the mount the identity; the filters as the documented example's
+/// defaults), and `id`, the device's id, which the `haply` crate reads as
+/// the device's id (`DeviceConfig::id`; issue 63).
 fn config() -> serde_json::Value {
     serde_json::json!({
+        "id": DEVICE_ID,
         "type": "inverse3",
         "port": "emulated",
         "device_info": {"id": DEVICE_ID, "major_version": 7, "minor_version": 4,
-                        "device_type": "inverse3", "uuid": "00000000-0000-0000-0000-00000000e3e1"},
+                        "device_type": 4, "uuid": "00000000-0000-0000-0000-00000000e3e1"},
         "extended_device_id": DEVICE_ID,
         "extended_firmware_version": "frictionlab-emulator",
         "gravity_compensation": {"enabled": true, "scaling_factor": 1.0},
         "handedness": "right",
         "torque_scaling": {"enabled": true},
+        "home_return": {"enabled": false},
         "streaming_mode": "USB",
         "preset": "defaults",
+        "basis": {"permutation": "XYZ"},
+        "mount": *rest::IDENTITY,
         "filters": {"force_gate": {"gain": 0.3}, "damping": {"scalar": 0.0}}
     })
 }
@@ -263,21 +286,90 @@ impl Default for Options {
     }
 }
 
+/// What the clients share: the plant, the sessions (each WebSocket
+/// client's id and profile), when the service started, the port it
+/// listens on and what it answers with.
+struct Shared {
+    plant: Mutex<Plant>,
+    sessions: Mutex<BTreeMap<u64, Option<String>>>,
+    start: Instant,
+    port: u16,
+    options: Options,
+}
+
+impl Shared {
+    fn plant(&self) -> std::sync::MutexGuard<'_, Plant> {
+        self.plant.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    fn sessions(&self) -> std::sync::MutexGuard<'_, BTreeMap<u64, Option<String>>> {
+        self.sessions.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// The plant, advanced to now unless in lockstep (where only the
+    /// WebSocket's messages advance it).
+    fn now(&self) -> std::sync::MutexGuard<'_, Plant> {
+        let mut p = self.plant();
+        if !self.options.lockstep {
+            p.advance(self.start.elapsed().as_secs_f64());
+        }
+        p
+    }
+
+    /// What the HTTP API answers from.
+    fn view(&self) -> rest::View {
+        let device = self
+            .options
+            .with_device
+            .then(|| serde_json::to_value(self.now().device(true)).unwrap_or_default());
+        rest::View {
+            version: self.options.version.clone(),
+            device,
+            sessions: self
+                .sessions()
+                .iter()
+                .map(|(&id, profile)| rest::Session {
+                    id,
+                    profile: profile.clone(),
+                })
+                .collect(),
+            port: self.port,
+        }
+    }
+}
+
+/// A WebSocket client's session, listed from its handshake until it ends.
+struct Listed<'a> {
+    shared: &'a Shared,
+    id: u64,
+}
+
+impl Drop for Listed<'_> {
+    fn drop(&mut self) {
+        self.shared.sessions().remove(&self.id);
+    }
+}
+
 /// Serves clients on `listener` until it fails: each WebSocket client in
 /// its own thread, on one shared plant advanced in real time (or in
 /// lockstep with the messages, [`Options::lockstep`]); plain HTTP requests
-/// get `/version`.
+/// get the HTTP API ([`rest`]).
 ///
 /// # Errors
 /// The listener failed.
 pub fn serve(listener: &TcpListener, track: Track, options: &Options) -> std::io::Result<()> {
-    let plant = Arc::new(Mutex::new(Plant::new(track).miswired(options.miswiring)));
-    let start = Instant::now();
+    let shared = Arc::new(Shared {
+        plant: Mutex::new(Plant::new(track).miswired(options.miswiring)),
+        sessions: Mutex::new(BTreeMap::new()),
+        start: Instant::now(),
+        port: listener.local_addr()?.port(),
+        options: options.clone(),
+    });
     for (sessions, stream) in (1_u64..).zip(listener.incoming()) {
         let stream = stream?;
-        let (plant, options) = (plant.clone(), options.clone());
+        let shared = shared.clone();
         std::thread::spawn(move || {
-            let _ = client(stream, &plant, start, sessions, &options);
+            let _ = client(stream, &shared, sessions);
         });
     }
     Ok(())
@@ -291,28 +383,22 @@ fn is_websocket(stream: &TcpStream) -> bool {
         .contains("upgrade: websocket")
 }
 
-fn client(
-    mut stream: TcpStream,
-    plant: &Mutex<Plant>,
-    start: Instant,
-    session_id: u64,
-    options: &Options,
-) -> std::io::Result<()> {
+fn client(mut stream: TcpStream, shared: &Shared, session_id: u64) -> std::io::Result<()> {
+    let options = &shared.options;
     stream.set_nodelay(true)?;
     // Wait for the request's head before deciding what it is.
-    std::thread::sleep(std::time::Duration::from_millis(5));
+    std::thread::sleep(Duration::from_millis(5));
     if !is_websocket(&stream) {
-        return http(&mut stream, options);
+        return http(&mut stream, shared);
     }
     let mut ws = tungstenite::accept(stream).map_err(std::io::Error::other)?;
+    shared.sessions().insert(session_id, None);
+    let _listed = Listed {
+        shared,
+        id: session_id,
+    };
     let frame = |inventory: bool| {
-        let mut p = plant
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
-        if !options.lockstep {
-            p.advance(start.elapsed().as_secs_f64());
-        }
-        let mut f = p.frame(session_id, inventory);
+        let mut f = shared.now().frame(session_id, inventory);
         if !options.with_device {
             f.inverse3.clear();
         }
@@ -328,15 +414,24 @@ fn client(
             _ => continue,
         };
         let message: ClientMessage = serde_json::from_str(&text).unwrap_or_default();
+        if let Some(profile) = message
+            .session
+            .configure
+            .as_ref()
+            .and_then(|c| c.profile.as_ref())
         {
-            let mut p = plant
-                .lock()
-                .unwrap_or_else(std::sync::PoisonError::into_inner);
-            if options.lockstep {
+            shared
+                .sessions()
+                .insert(session_id, Some(profile.name.clone()));
+        }
+        {
+            let mut p = if options.lockstep {
+                let mut p = shared.plant();
                 p.advance_lockstep();
+                p
             } else {
-                p.advance(start.elapsed().as_secs_f64());
-            }
+                shared.now()
+            };
             if options.with_device {
                 p.apply(&message);
             }
@@ -347,34 +442,219 @@ fn client(
     }
 }
 
-/// A plain HTTP request: `GET /version` answered, anything else 404.
-fn http(stream: &mut TcpStream, options: &Options) -> std::io::Result<()> {
-    let mut head = [0_u8; 2048];
-    let n = stream.read(&mut head)?;
-    let request = String::from_utf8_lossy(&head[..n]);
-    let (status, body) = if request.starts_with("GET /version") {
-        (
-            "200 OK",
-            serde_json::json!({
-                "build_time": "",
-                "git_branch": "",
-                "git_describe": options.version,
-                "git_hash": "",
-                "git_tag": options.version,
-                "project_name": "haply-inverse-service (frictionlab emulator)",
-                "project_version": options.version,
-            })
-            .to_string(),
-        )
-    } else {
-        (
-            "404 Not Found",
-            r#"{"ok":false,"error":"not found"}"#.to_owned(),
-        )
+/// The longest request (head and body) the emulated service reads, bytes.
+const REQUEST_LIMIT: usize = 1 << 20;
+
+/// How much of a request is read at a time, bytes.
+const CHUNK: usize = 4096;
+
+/// How long a client may take to send its request.
+const REQUEST_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// A plain HTTP request: answered by the HTTP API ([`rest`]), one request
+/// per connection.
+fn http(stream: &mut TcpStream, shared: &Shared) -> std::io::Result<()> {
+    stream.set_read_timeout(Some(REQUEST_TIMEOUT))?;
+    let reply = match read_request(stream)? {
+        Some((method, target)) => rest::route(&method, &target, &shared.view()),
+        None => rest::Reply::error(400, "not an HTTP request the emulated service can read"),
     };
+    let body = reply.body.to_string();
     write!(
         stream,
-        "HTTP/1.1 {status}\r\nContent-Type: application/json\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
+        "HTTP/1.1 {} {}\r\nContent-Type: application/json\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
+        reply.status,
+        reply.reason(),
         body.len()
     )
+}
+
+/// Reads a request's head (method and target) and its body, which no route
+/// takes but which is read so that closing the connection does not reset
+/// it before the client has the answer. `None`: not HTTP, or longer than
+/// [`REQUEST_LIMIT`].
+fn read_request(stream: &mut TcpStream) -> std::io::Result<Option<(String, String)>> {
+    let mut read = Vec::new();
+    let mut chunk = [0_u8; CHUNK];
+    loop {
+        let mut headers = [httparse::EMPTY_HEADER; 64];
+        let mut request = httparse::Request::new(&mut headers);
+        match request.parse(&read) {
+            Ok(httparse::Status::Complete(head)) => {
+                let length = request
+                    .headers
+                    .iter()
+                    .find(|h| h.name.eq_ignore_ascii_case("content-length"))
+                    .and_then(|h| std::str::from_utf8(h.value).ok()?.trim().parse().ok())
+                    .unwrap_or(0_usize);
+                let (Some(method), Some(target)) = (request.method, request.path) else {
+                    return Ok(None);
+                };
+                let (method, target) = (method.to_owned(), target.to_owned());
+                let whole = head.saturating_add(length);
+                if whole > REQUEST_LIMIT {
+                    return Ok(None);
+                }
+                let mut left = whole.saturating_sub(read.len());
+                while left > 0 {
+                    let n = stream.read(&mut chunk[..left.min(CHUNK)])?;
+                    if n == 0 {
+                        break;
+                    }
+                    left -= n;
+                }
+                return Ok(Some((method, target)));
+            }
+            Ok(httparse::Status::Partial) if read.len() < REQUEST_LIMIT => {}
+            _ => return Ok(None),
+        }
+        let n = stream.read(&mut chunk)?;
+        if n == 0 {
+            return Ok(None);
+        }
+        read.extend_from_slice(&chunk[..n]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, reason = "tests")]
+    use super::*;
+
+    /// An emulated service on a free loopback port (lockstep).
+    fn service() -> std::net::SocketAddr {
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        let address = listener.local_addr().unwrap();
+        let options = Options {
+            lockstep: true,
+            ..Options::default()
+        };
+        let track = crate::device::inverse3::Config::default().track;
+        std::thread::spawn(move || serve(&listener, track, &options));
+        address
+    }
+
+    /// Sends `parts` (with a pause between them), reads the answer: its
+    /// status code and JSON body.
+    fn ask(address: std::net::SocketAddr, parts: &[&str]) -> (u16, serde_json::Value) {
+        let mut stream = TcpStream::connect(address).unwrap();
+        for part in parts {
+            stream.write_all(part.as_bytes()).unwrap();
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let mut text = String::new();
+        stream.read_to_string(&mut text).unwrap();
+        let (head, body) = text.split_once("\r\n\r\n").unwrap();
+        let status = head.split(' ').nth(1).unwrap().parse().unwrap();
+        assert!(head.contains("Content-Type: application/json"), "{head}");
+        (status, serde_json::from_str(body).unwrap())
+    }
+
+    fn get(address: std::net::SocketAddr, path: &str) -> (u16, serde_json::Value) {
+        ask(
+            address,
+            &[&format!("GET {path} HTTP/1.1\r\nHost: x\r\n\r\n")],
+        )
+    }
+
+    /// Issue 63: over the socket, `GET /devices` answers 200 with the
+    /// inventory (it answered 404), an unknown path 404 with a JSON error,
+    /// and `GET /version` as before.
+    #[test]
+    fn issue_63_the_service_answers_its_http_api_on_its_port() {
+        let address = service();
+        let (status, devices) = get(address, "/devices");
+        assert_eq!(status, 200, "{devices}");
+        let device = &devices["inverse3"][0];
+        assert_eq!(device["device_id"], DEVICE_ID);
+        assert_eq!(device["config"]["id"], DEVICE_ID);
+        assert!(
+            device["state"]["cursor_position"]["z"].is_number(),
+            "{device}"
+        );
+        let (status, error) = get(address, "/no/such/route");
+        assert_eq!((status, &error["ok"]), (404, &serde_json::json!(false)));
+        let (status, version) = get(address, "/version");
+        assert_eq!(
+            (status, &version["project_version"]),
+            (200, &serde_json::json!(VERSION))
+        );
+        let (status, port) = get(address, "/settings/communication/http/port");
+        assert_eq!(
+            (status, &port["data"]),
+            (200, &serde_json::json!(address.port()))
+        );
+    }
+
+    /// A request that arrives in pieces (head split, body later) is read
+    /// whole; a change is refused (501) with the documented error envelope.
+    #[test]
+    fn a_request_in_pieces_is_read_whole_and_a_change_is_refused() {
+        let address = service();
+        let body = r#"{"handedness":"left"}"#;
+        let (status, reply) = ask(
+            address,
+            &[
+                "POST /inverse3/0/config/hand",
+                &format!(
+                    "edness HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: {}\r\n\r\n",
+                    body.len()
+                ),
+                body,
+            ],
+        );
+        assert_eq!(
+            (status, &reply["ok"]),
+            (501, &serde_json::json!(false)),
+            "{reply}"
+        );
+        let (_, still) = get(address, "/inverse3/0/config/handedness");
+        assert_eq!(still["data"], "right");
+        let (status, _) = ask(address, &["\x16\x03\x01 not http\r\n\r\n"]);
+        assert_eq!(status, 400);
+    }
+
+    /// Each WebSocket client is a session, listed with the profile it
+    /// configured while it is connected, and gone when it leaves.
+    #[test]
+    fn websocket_clients_are_listed_as_sessions_with_their_profiles() {
+        let address = service();
+        let (mut ws, _) = tungstenite::connect(format!("ws://{address}/")).unwrap();
+        let inventory: ServiceFrame =
+            serde_json::from_str(ws.read().unwrap().to_text().unwrap()).unwrap();
+        let id = inventory.session_id;
+        let message = super::super::messages::force(DEVICE_ID, [0.0; 3], Some("frictionlab"));
+        ws.send(tungstenite::Message::text(
+            serde_json::to_string(&message).unwrap(),
+        ))
+        .unwrap();
+        ws.read().unwrap();
+        let (_, sessions) = get(address, "/sessions");
+        assert_eq!(sessions["data"]["session_count"], 1, "{sessions}");
+        assert_eq!(sessions["data"]["sessions"][0]["session_id"], id);
+        let (status, profile) = get(address, &format!("/sessions/{id}/profile"));
+        assert_eq!(
+            (status, &profile["data"]["name"]),
+            (200, &serde_json::json!("frictionlab"))
+        );
+        let (status, basis) = get(
+            address,
+            "/inverse3/E3M1/config/basis?session=:frictionlab:0",
+        );
+        assert_eq!(
+            (status, &basis["data"]["permutation"]),
+            (200, &serde_json::json!("XYZ"))
+        );
+        ws.close(None).unwrap();
+        while ws.read().is_ok() {}
+        let mut count = serde_json::Value::Null;
+        for _ in 0..100 {
+            count = get(address, "/sessions").1["data"]["session_count"].clone();
+            if count == 0 {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        assert_eq!(count, 0, "the session ends with its client");
+    }
 }

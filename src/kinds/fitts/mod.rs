@@ -22,7 +22,9 @@ use crate::analysis::{AnalysisEntry, KindAnalysis, Section};
 use crate::friction::ModelParams;
 use crate::protocol::check::ValueChecks;
 use crate::protocol::engine::{Action, Input, Screen};
-use crate::protocol::kind::{Block, WriteCells, Holds, Kinds, LiveTrial, Next, StudyKind};
+use crate::protocol::kind::{
+    Block, Holds, Kinds, LiveTrial, Next, Reach, StudyKind, WriteCells,
+};
 use crate::protocol::load::{Walk, read_object};
 use crate::time::Time;
 
@@ -288,6 +290,27 @@ impl StudyKind for Fitts {
             ],
             "levels": [{"amplitude_m": 0.016, "width_m": 0.003}]
         })
+    }
+
+    /// Each level's two targets, centred at `±A/2`, `W` wide: the hand
+    /// must reach both whole (their outer edges at `±(A + W)/2`).
+    fn reach(d: &FittsDesign) -> Vec<Reach> {
+        d.levels
+            .iter()
+            .enumerate()
+            .map(|(i, level)| {
+                let edge = decimal::add(level.amplitude_m, level.width_m) / 2.0;
+                Reach {
+                    path: format!("levels[{i}]"),
+                    what: format!(
+                        "targets at ±{} mm, {} mm wide",
+                        decimal::mul(level.amplitude_m, 500.0),
+                        decimal::mul(level.width_m, 1000.0)
+                    ),
+                    span_m: [-edge, edge],
+                }
+            })
+            .collect()
     }
 
     fn check(d: &FittsDesign, c: &mut ValueChecks) {
