@@ -8,6 +8,7 @@ use super::{
     DeviceChoice, EXIT_BAD_INPUT, EXIT_FAILURE, Failure, GuiArgs, IdentifyArgs, LslArgs, PowerArgs,
     RenderArgs, ResponderChoice, RunArgs, SimulateArgs, UserError, device_failure, emit, say,
 };
+use crate::device::miswiring::Miswiring;
 use crate::friction::Validate;
 use crate::friction::{ForceLimit, ModelParams};
 use crate::kinds::{Protocol, Registry};
@@ -359,6 +360,7 @@ pub(super) fn inverse3_emulator_command(
     version: Option<String>,
     no_device: bool,
     lockstep: bool,
+    miswiring: Miswiring,
 ) -> Result<(), Failure> {
     use crate::device::inverse3::{self, emulator};
     let place = format!("inverse3:{target}");
@@ -370,6 +372,7 @@ pub(super) fn inverse3_emulator_command(
         version: version.unwrap_or_else(|| emulator::VERSION.to_owned()),
         with_device: !no_device,
         lockstep,
+        miswiring,
     };
     emit(&format!(
         "Inverse Service emulator {} on {address}{}\n",
@@ -389,6 +392,7 @@ pub(super) fn haply2diy_emulator_command(
     path: &Path,
     lockstep: bool,
     transcript: Option<&Path>,
+    miswiring: Miswiring,
 ) -> Result<(), Failure> {
     use crate::device::haply2diy::{Config, emulator};
     use crate::device::pty::{self, Endpoint, OpenError};
@@ -423,7 +427,7 @@ pub(super) fn haply2diy_emulator_command(
             )
         }
     })?;
-    let mut core = emulator::BoardCore::new(&Config::vendor(3));
+    let mut core = emulator::BoardCore::new(&Config::vendor(3)).miswired(&miswiring);
     let clock = if lockstep {
         emulator::Clock::Lockstep
     } else {
@@ -484,6 +488,7 @@ pub(super) fn emulator_command(
     path: &Path,
     on_board: bool,
     link_delay_ms: u16,
+    miswiring: Miswiring,
 ) -> Result<(), Failure> {
     use crate::device::frictionlab::emulator::{self, Endpoint, OpenError};
     let place = path.display().to_string();
@@ -511,7 +516,8 @@ pub(super) fn emulator_command(
         emulator::EmulatorCore::on_board()
     } else {
         emulator::EmulatorCore::new()
-    };
+    }
+    .miswired(miswiring);
     emulator
         .serve(
             core,

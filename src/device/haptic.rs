@@ -56,6 +56,14 @@ pub enum ToLoop {
     Offer(Offer),
     /// The experimenter did what the device asked (a tick's `request`).
     Confirm,
+    /// The bring-up check's pulse ([`super::check`]): from now on add this
+    /// force along the track, N, to the model's (0: none), within the
+    /// limit.
+    Push(f64),
+    /// The bring-up check: render the wall that holds the hand on the
+    /// track (true, as from the start) or not (a device wired the wrong
+    /// way round would push the hand away).
+    Wall(bool),
 }
 
 /// Whoever wants the loop's ticks as they happen: called on the loop's
@@ -341,6 +349,7 @@ fn run(
     };
     let mut deadline = Instant::now() + period;
     let mut sink: Option<Offer> = None;
+    let (mut push_n, mut wall) = (0.0_f64, true);
     while !stop.load(Ordering::Relaxed) {
         spin_sleep::sleep_until(deadline);
         let woke = Instant::now();
@@ -403,6 +412,8 @@ fn run(
                 ToLoop::Hand(drive) => device.drive_hand(&drive),
                 ToLoop::Offer(offer) => sink = Some(offer),
                 ToLoop::Confirm => device.confirm(now),
+                ToLoop::Push(f) => push_n = if f.is_finite() { f } else { 0.0 },
+                ToLoop::Wall(on) => wall = on,
             }
         }
 
@@ -433,13 +444,15 @@ fn run(
         if !finite {
             non_finite += 1;
         }
-        let (along_n, vibration) = if connected && finite {
-            (out.force_n, out.vibration)
-        } else {
-            (0.0, 0.0)
+        let (along_n, vibration) = match (connected, finite) {
+            (true, true) => (out.force_n + push_n, out.vibration),
+            (true, false) => (push_n, 0.0),
+            (false, _) => (0.0, 0.0),
         };
-        let force = if connected {
+        let force = if connected && wall {
             track.force(along_n, motion.offset, motion.offset_v, in_force)
+        } else if connected {
+            track.force(along_n, [0.0; MAX_AXES], [0.0; MAX_AXES], in_force)
         } else {
             [0.0; MAX_AXES]
         };

@@ -104,6 +104,7 @@
 //! input: no trial starts before the log is open, so each trial's stream
 //! holds it from its first tick (issue 63).
 
+pub mod check;
 pub mod device;
 pub mod event;
 pub mod feel;
@@ -119,6 +120,7 @@ pub mod view;
 use std::collections::VecDeque;
 use std::path::PathBuf;
 
+pub use check::{CheckDone, DeviceCheck};
 pub use device::{DeviceStatus, HAND_EVERY_S, percentile};
 pub use event::{Event, Feed};
 pub use feel::Feel;

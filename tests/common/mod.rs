@@ -127,19 +127,36 @@ pub fn emulator(path: &std::path::Path) -> std::process::Child {
 
 /// [`emulator`] with more options (`--on-board`).
 pub fn emulator_with(path: &std::path::Path, options: &[&str]) -> std::process::Child {
+    emulator_until(path.to_str().unwrap(), options, || {
+        std::fs::read_link(path).is_ok()
+    })
+}
+
+/// Starts `frictionlab device-emulator TARGET OPTIONS` (any kind) and waits
+/// until `ready` (at most 10 s).
+pub fn emulator_until(
+    target: &str,
+    options: &[&str],
+    ready: impl Fn() -> bool,
+) -> std::process::Child {
     let child = std::process::Command::new(env!("CARGO_BIN_EXE_frictionlab"))
-        .args(["device-emulator", path.to_str().unwrap()])
+        .args(["device-emulator", target])
         .args(options)
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
         .spawn()
         .unwrap();
     let start = std::time::Instant::now();
-    while std::fs::read_link(path).is_err() && start.elapsed() < std::time::Duration::from_secs(10)
-    {
+    while !ready() && start.elapsed() < std::time::Duration::from_secs(10) {
         std::thread::sleep(std::time::Duration::from_millis(10));
     }
     child
+}
+
+/// Stops a child process started by a test.
+pub fn stop(mut child: std::process::Child) {
+    let _ = child.kill();
+    let _ = child.wait();
 }
 
 /// The completed trials of a session log, in plan order.

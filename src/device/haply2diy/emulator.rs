@@ -41,6 +41,7 @@ use super::pantograph::{self, Links, Pose};
 use super::protocol::{PORTS, Wiring};
 use super::{Config, MAX_TORQUE_N_M};
 use crate::device::hand_link;
+use crate::device::miswiring::Miswiring;
 use crate::device::pty::is_busy;
 use crate::device::track::Track;
 use frictionlab_core::plant::{Apparatus, Rig};
@@ -57,8 +58,15 @@ pub const HAND_ACROSS_DAMPING_N_S_M: f64 = 5.0;
 pub const HAND_ACROSS_REST_M: f64 = 0.003;
 /// The hand's mass, kg (as the simulated participant's on our own device).
 pub const HAND_MASS_KG: f64 = 0.4;
-/// How far along the track the linkage moves before it meets its stops, m.
-pub const TRACK_RANGE_M: f64 = 0.08;
+/// How far along the track the linkage moves before it meets its stops, m:
+/// the travel the driver states for `config` ([`Config::reach`]), so that a
+/// bring-up check of the emulator measures what the driver states (issue
+/// 63; a real 2DIY has no stops there: the lab marks the ends).
+#[must_use]
+pub fn track_range_m(config: &Config) -> f64 {
+    let ([lo, hi], _) = config.reach();
+    2.0 * hi.min(-lo).max(0.0)
+}
 
 /// Physics step of the emulator, s.
 pub const STEP_S: f64 = 0.0005;
@@ -95,6 +103,9 @@ pub struct BoardCore {
     across: (f64, f64),
     /// The last pose inside the workspace.
     angles: [f64; 2],
+    /// The encoders count this many times the steps per turn the host
+    /// sets up ([`Miswiring::encoder_scale`]; 1: right).
+    encoder_scale: f64,
 }
 
 impl BoardCore {
@@ -107,7 +118,7 @@ impl BoardCore {
             mass_kg: LINKAGE_MASS_KG,
             static_friction_n: LINKAGE_FRICTION_N,
             max_force_n: 1e3,
-            range_m: TRACK_RANGE_M,
+            range_m: track_range_m(config),
             encoder_m: 1e-9,
             ..Apparatus::default()
         };
@@ -121,9 +132,26 @@ impl BoardCore {
             rig: Rig::new(apparatus, HAND_MASS_KG),
             across: (0.0, 0.0),
             angles: [0.0; 2],
+            encoder_scale: 1.0,
         };
         core.park();
         core
+    }
+
+    /// This board wired wrong as `miswiring` says: both encoders counting
+    /// the other way than the setup says (`flip_encoder`), both motors
+    /// turning the other way (`flip_motor`), the encoders counting
+    /// `encoder_scale` times the steps per turn the setup states.
+    #[must_use]
+    pub fn miswired(mut self, miswiring: &Miswiring) -> Self {
+        for e in &mut self.truth.encoders {
+            e.direction ^= u8::from(miswiring.flip_encoder);
+        }
+        for m in &mut self.truth.motors {
+            m.direction ^= u8::from(miswiring.flip_motor);
+        }
+        self.encoder_scale = miswiring.encoder_scale;
+        self
     }
 
     /// Puts the linkage at its calibration pose, at rest, where the
@@ -338,7 +366,7 @@ impl BoardCore {
             .joint(port, false, direction)
             .map_or(0.0, |(j, sign)| sign * (self.angles[j] - r.at_setup[j]));
         #[expect(clippy::cast_possible_truncation, reason = "whole encoder steps")]
-        let count = count0 + (turned * resolution / 360.0).floor() as i64;
+        let count = count0 + (turned * self.encoder_scale * resolution / 360.0).floor() as i64;
         #[expect(
             clippy::cast_possible_truncation,
             clippy::cast_precision_loss,

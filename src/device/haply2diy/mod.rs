@@ -111,6 +111,7 @@ pub const KIND: super::Kind = super::Kind {
     target: "PATH",
     bare: false,
     check,
+    check_settings: |set| Config::with(set).map(|_| ()),
     open,
     find,
 };
