@@ -63,6 +63,7 @@ fn generate(dir: &Path, participants: u32) {
             device: "sim".into(),
             device_settings: None,
             device_limits: None,
+            device_check: None,
             responder: "sim".into(),
             planned_trials: 1000,
             population: None,

@@ -6,6 +6,7 @@
 #   bash docs/screenshots.sh            # every picture
 #   bash docs/screenshots.sh builder    # the setup and builder pictures only
 #   bash docs/screenshots.sh results    # each kind's Results tab only
+#   bash docs/screenshots.sh check      # the bring-up check only
 #
 # FRICTIONLAB_BIN names a frictionlab binary to use instead of building
 # the release one; SCREENSHOT_DISPLAY the X display to use (default :97).
@@ -77,6 +78,30 @@ answer() { click 1282 142 0.2; focus; xdotool key ctrl+a BackSpace; type_text "$
 stroke() { # the mouse drives the simulated hand back and forth
     for x in 1250 1700 1250 1700 1450; do xdotool mousemove "$x" 220; sleep 0.35; done
 }
+
+# The bring-up check in the Setup tab (issue 63), on an emulated 2DIY:
+# a person's first prompt with its Done button (after the 10 s of loop
+# timing), then, stopped, the whole check done by the simulated
+# experimenter.
+if [ "$only" = all ] || [ "$only" = check ]; then
+    stop
+    "$bin" device-emulator "haply2diy:$work/diy" >>"$work/gui.log" 2>&1 &
+    emulated=$!
+    sleep 1
+    "$bin" gui --participant p01 --out "$work/results" --device "haply2diy:$work/diy" >>"$work/gui.log" 2>&1 &
+    app=$!
+    sleep 3
+    click 146 322 12.5
+    experimenter check-device-prompt
+    click 58 305 1
+    click 357 322 0.5
+    click 146 322 22
+    experimenter check-device
+    stop
+    kill "$emulated" 2>/dev/null || true
+    wait "$emulated" 2>/dev/null || true
+fi
+if [ "$only" = check ]; then exit 0; fi
 
 # Each kind's view in the Results tab (issue 45): a simulated study of its
 # shipped protocol, analysed from the window, its sentences and figures.

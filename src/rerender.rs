@@ -18,6 +18,13 @@
 //! the stream. Every later `selected` row selects its render again, as the
 //! device did.
 //!
+//! A stream that opens rendering nothing, unselected (a trial whose
+//! condition renders no model: Fitts' baseline), has rendered nothing
+//! since its first row at the latest, and whatever the previous render
+//! left has faded out a crossfade (`ramp_s`) later. The replay starts
+//! there, rendering nothing (zero force and vibration expected), unless a
+//! select of a model comes first.
+//!
 //! A select in a stream's first row is taken to start from nothing too, as
 //! every trial ends by rendering nothing. (On board, over a lagging link,
 //! the previous trial's selects can take effect after the next trial's
@@ -361,13 +368,25 @@ pub fn rerender(rows: &[Row], entries: &[RenderEntry]) -> Rerendered {
         return out;
     };
     let renders_nothing = |r: &Row| entries.get(r.render).is_some_and(|e| e.model.is_none());
-    let start = (0..rows.len())
+    let selected = (0..rows.len())
         .find(|&i| {
             let r = &rows[i];
             let after_nothing = i.checked_sub(1).is_none_or(|p| renders_nothing(&rows[p]));
             r.selected && entries.get(r.render).is_some_and(|e| e.model.is_some()) && after_nothing
         })
         .unwrap_or(rows.len());
+    // A stream that opens rendering nothing has rendered nothing since a
+    // crossfade's length before its first row at the latest: from there
+    // on, nothing is what the replay renders too (module docs).
+    let settled = renders_nothing(&rows[0])
+        .then(|| {
+            (0..rows.len()).find(|&i| {
+                rows[i].render != rows[0].render || rows[i].t_s - rows[0].t_s >= first.ramp_s
+            })
+        })
+        .flatten()
+        .filter(|&i| rows[i].render == rows[0].render);
+    let start = settled.map_or(selected, |i| i.min(selected));
     out.skipped = start;
     match first.float {
         Float::F64 => replay::<f64>(rows, entries, start, &mut out),

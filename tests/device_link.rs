@@ -11,7 +11,6 @@ use crate::common;
 use std::io::{Read, Write};
 
 use std::path::Path;
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use frictionlab::device::frictionlab::emulator::EmulatorCore;
@@ -19,8 +18,9 @@ use frictionlab::device::frictionlab::link::{Incoming, Link, LinkState, Sample};
 use frictionlab::device::frictionlab::wire::{Decoder, MAX_FRAME, Message, encode, frame, status};
 use frictionlab::device::transport::Transport;
 
-/// `TTYPort::pair` is not thread-safe: tests that make pairs take turns.
-static PTY: Mutex<()> = Mutex::new(());
+/// `TTYPort::pair` is not thread-safe: tests that make pairs take turns
+/// (with every test of the binary).
+use crate::common::PTY;
 
 /// Runs the host side for `seconds` of wall time at about 1 kHz: sends what
 /// the link asks for (rendering `force(t)`, plus a hand drive every 10 ms),

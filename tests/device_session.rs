@@ -198,7 +198,7 @@ fn a_device_that_never_comes_back_ends_the_run_with_exit_3() {
 fn a_device_that_never_answers_starts_no_session_and_exits_3() {
     // A port that is there but silent (a powered-off device): a
     // pseudo-terminal whose other end never speaks.
-    let (_master, slave) = serialport::TTYPort::pair().unwrap();
+    let (_master, slave) = common::pty_pair();
     let port = serialport::SerialPort::name(&slave).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("results");
@@ -406,7 +406,7 @@ fn a_live_session_on_a_silent_device_writes_nothing() {
     use frictionlab::session::SessionRequest;
     use frictionlab::session::{DeviceChoice, Feed, LiveSession, SessionState};
 
-    let (_master, slave) = serialport::TTYPort::pair().unwrap();
+    let (_master, slave) = common::pty_pair();
     let port = serialport::SerialPort::name(&slave).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = format!("{}/protocols/paired-quick.json", env!("CARGO_MANIFEST_DIR"));

@@ -1368,3 +1368,66 @@ fn the_desktops_file_chooser_opens_a_protocol_in_the_builder_issue_37() {
         std::fs::read_to_string(dir.path().join("gui.err")).unwrap_or_default()
     );
 }
+
+/// Issue 63: the bring-up check in the Setup tab. With the simulated
+/// experimenter, the check of the simulated apparatus shows each step
+/// passed with its numbers and keeps its report in the output folder; with
+/// a person, each prompt stands with a "Done" button, and a check stopped
+/// before its end keeps no report.
+#[test]
+fn the_setup_tab_runs_the_bring_up_check_with_its_prompts_and_keeps_its_report_issue_63() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("results");
+    let mut h = harness(&out, "p01", None);
+    type_into_role(&mut h, Role::SpinButton, "loop timing over", "1");
+    click(&mut h, "simulated experimenter (an emulated device)");
+    click(&mut h, "Check device");
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    let has = |h: &Harness<'_, FrictionlabApp>, text: &str| {
+        h.query_all_by_label_contains(text).next().is_some()
+    };
+    let wait_for = |h: &mut Harness<'_, FrictionlabApp>, text: &str| {
+        let start = std::time::Instant::now();
+        while !has(h, text) {
+            assert!(
+                start.elapsed() < std::time::Duration::from_mins(1),
+                "no '{text}' in the window"
+            );
+            h.step();
+            std::thread::sleep(std::time::Duration::from_millis(10));
+        }
+    };
+    wait_for(&mut h, "Every step passed.");
+    for line in [
+        "PASS handshake",
+        "PASS encoder direction and scale: plus end",
+        "PASS force direction",
+        "N/A  wall",
+        "Asked: Move the handle along the track to its + end",
+    ] {
+        assert!(has(&h, line), "{line}");
+    }
+    let kept = std::fs::read_dir(out.join("device-checks"))
+        .unwrap()
+        .count();
+    assert_eq!(kept, 1);
+    click(&mut h, "Back to the setup");
+    // A person: the prompt stands with Done until it is pressed.
+    click(&mut h, "simulated experimenter (an emulated device)");
+    click(&mut h, "Check device");
+    wait_for(&mut h, "hold it there, then confirm");
+    assert!(h.query_by_label("Done").is_some(), "Done stands");
+    assert!(has(&h, "to its + end"), "the first prompt");
+    click(&mut h, "Done");
+    wait_for(&mut h, "to its - end");
+    click(&mut h, "Stop the check");
+    h.step();
+    assert!(
+        h.query_by_label("Check device").is_some(),
+        "back to the setup"
+    );
+    let kept = std::fs::read_dir(out.join("device-checks"))
+        .unwrap()
+        .count();
+    assert_eq!(kept, 1, "a stopped check keeps no report");
+}

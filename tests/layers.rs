@@ -552,7 +552,8 @@ let x = crate::results::csv::opt(1);
 
 /// Issue 43: every device is a folder under `src/device/` (a backend,
 /// listed in `device::KINDS`); the haptic loop, the seam it drives, the
-/// session and the window name none of them.
+/// bring-up check (issue 63), the session and the window name none of
+/// them.
 #[test]
 fn the_loop_the_session_and_the_window_name_no_device_backend() {
     let src = src_root();
@@ -574,6 +575,7 @@ fn the_loop_the_session_and_the_window_name_no_device_backend() {
         src.join("device/haptic.rs"),
         src.join("device/backend.rs"),
         src.join("device/track.rs"),
+        src.join("device/check.rs"),
     ];
     rust_files(&src.join("session"), &mut files);
     rust_files(&src.join("gui"), &mut files);

@@ -5,6 +5,7 @@
 //! runs one file's tests.
 mod common;
 
+mod check_device;
 mod device_link;
 mod device_session;
 mod firmware_qemu;

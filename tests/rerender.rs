@@ -467,3 +467,56 @@ fn an_on_board_stream_opening_with_the_previous_trials_late_select_re_renders_ex
     assert_eq!(late.skipped, 0, "{late:?}");
     assert!(!late.bit_exact && late.max_force_diff_n > 0.1, "{late:?}");
 }
+
+/// A stream that renders nothing throughout (a Fitts baseline trial: its
+/// condition renders no model, and the device never shows a select) is
+/// compared from a crossfade after its first row on, where nothing is
+/// what the replay renders: zero force. A force there (a model left on)
+/// shows as a difference; before, such a stream compared no row (issue 63:
+/// `rerender` exits 2 when none is compared).
+#[test]
+fn a_stream_that_renders_nothing_is_compared_from_a_crossfade_after_its_start() {
+    use frictionlab::rerender::{Row, rerender};
+    let ramp_s = frictionlab_core::render::RAMP_S;
+    let row = |k: u32, force_n: f64| Row {
+        t_s: 1.0 + f64::from(k) / f64::from(on_board::RATE_HZ),
+        x_m: 0.001 * f64::from(k % 7),
+        v_m_s: 0.0,
+        force_n,
+        vibration: 0.0,
+        render: 0,
+        selected: false,
+        watchdog: false,
+        tick: Some(k),
+        normal_n: None,
+    };
+    let entries = [on_board::entry(None)];
+    let n = 2000;
+    // The previous trial's model fading out in the first rows.
+    let rows: Vec<Row> = (0..n)
+        .map(|k| row(k, if k < 100 { 0.5 } else { 0.0 }))
+        .collect();
+    let r = rerender(&rows, &entries);
+    // The first row a crossfade after the first (250 at 5 kHz).
+    let fade_rows = rows
+        .iter()
+        .position(|r| r.t_s - rows[0].t_s >= ramp_s)
+        .unwrap();
+    assert!((249..=251).contains(&fade_rows), "{fade_rows}");
+    println!(
+        "{} rows, {} skipped (a crossfade of {ramp_s} s), {} compared, bit_exact {}",
+        r.rows, r.skipped, r.compared, r.bit_exact
+    );
+    assert_eq!(
+        (r.skipped, r.compared, r.bit_exact),
+        (fade_rows, 2000 - fade_rows, true)
+    );
+    // A force after the crossfade is no rendering of nothing.
+    let mut bad = rows.clone();
+    bad[1500].force_n = 0.25;
+    let r = rerender(&bad, &entries);
+    assert_eq!(
+        (r.bit_exact, r.max_force_diff_n, r.worst_row),
+        (false, 0.25, Some(1500))
+    );
+}

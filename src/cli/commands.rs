@@ -8,6 +8,7 @@ use super::{
     DeviceChoice, EXIT_BAD_INPUT, EXIT_FAILURE, Failure, GuiArgs, IdentifyArgs, LslArgs, PowerArgs,
     RenderArgs, ResponderChoice, RunArgs, SimulateArgs, UserError, device_failure, emit, say,
 };
+use crate::device::miswiring::Miswiring;
 use crate::friction::Validate;
 use crate::friction::{ForceLimit, ModelParams};
 use crate::kinds::{Protocol, Registry};
@@ -359,6 +360,7 @@ pub(super) fn inverse3_emulator_command(
     version: Option<String>,
     no_device: bool,
     lockstep: bool,
+    miswiring: Miswiring,
 ) -> Result<(), Failure> {
     use crate::device::inverse3::{self, emulator};
     let place = format!("inverse3:{target}");
@@ -370,6 +372,7 @@ pub(super) fn inverse3_emulator_command(
         version: version.unwrap_or_else(|| emulator::VERSION.to_owned()),
         with_device: !no_device,
         lockstep,
+        miswiring,
     };
     emit(&format!(
         "Inverse Service emulator {} on {address}{}\n",
@@ -389,14 +392,18 @@ pub(super) fn haply2diy_emulator_command(
     path: &Path,
     lockstep: bool,
     transcript: Option<&Path>,
+    miswiring: Miswiring,
 ) -> Result<(), Failure> {
     use crate::device::haply2diy::{Config, emulator};
     use crate::device::pty::{self, Endpoint, OpenError};
     let place = format!("haply2diy:{}", path.display());
-    let mut port = pty::open(path).map_err(|e| match e {
-        OpenError::NotAPort(_) => Failure::from(vec![UserError::new(&place, e.to_string())]),
-        _ => device_failure(&place, e.to_string()),
-    })?;
+    let open = || {
+        pty::open(path).map_err(|e| match e {
+            OpenError::NotAPort(_) => Failure::from(vec![UserError::new(&place, e.to_string())]),
+            _ => device_failure(&place, e.to_string()),
+        })
+    };
+    let mut port = open()?;
     let mut log = match transcript {
         Some(t) => Some(
             std::fs::OpenOptions::new()
@@ -420,29 +427,68 @@ pub(super) fn haply2diy_emulator_command(
             )
         }
     })?;
-    let core = emulator::BoardCore::new(&Config::vendor(3));
+    let mut core = emulator::BoardCore::new(&Config::vendor(3)).miswired(&miswiring);
     let clock = if lockstep {
         emulator::Clock::Lockstep
     } else {
         emulator::Clock::Real
     };
-    emulator::serve(port.port(), core, clock, Some(&hand), |from_host, bytes| {
-        if let Some(f) = log.as_mut() {
-            use std::io::Write as _;
-            let mut line = String::from(if from_host { "> " } else { "< " });
-            for b in bytes {
-                let _ = write!(line, "{b:02x}");
+    let faults = emulator::Faults::default();
+    #[cfg(unix)]
+    for (signal, flag) in [
+        (signal_hook::consts::SIGUSR1, &faults.lose_setup),
+        (signal_hook::consts::SIGUSR2, &faults.replug),
+    ] {
+        signal_hook::flag::register(signal, std::sync::Arc::clone(flag))
+            .map_err(|e| device_failure(&place, format!("cannot handle signals: {e}")))?;
+    }
+    loop {
+        let served = emulator::serve(
+            port.port(),
+            &mut core,
+            clock,
+            Some(&hand),
+            &faults,
+            |from_host, bytes| {
+                if let Some(f) = log.as_mut() {
+                    use std::io::Write as _;
+                    let mut line = String::from(if from_host { "> " } else { "< " });
+                    for b in bytes {
+                        let _ = write!(line, "{b:02x}");
+                    }
+                    let _ = writeln!(f, "{line}");
+                }
+            },
+        )
+        .map_err(|e| device_failure(&place, e.to_string()))?;
+        match served {
+            emulator::Served::LoseSetup if core.is_set_up() => {
+                core.lose_setup();
+                emit("haply2diy emulator: the board lost its setup (SIGUSR1)\n")?;
             }
-            let _ = writeln!(f, "{line}");
+            emulator::Served::LoseSetup => {
+                core.park();
+                emit("haply2diy emulator: the handle put at its calibration pose (SIGUSR1)\n")?;
+            }
+            emulator::Served::Replug => {
+                // The port goes away (its pseudo-terminal closed, the link
+                // left dangling) and comes back, the board as it was.
+                drop(port);
+                std::thread::sleep(std::time::Duration::from_secs_f64(emulator::REPLUG_GAP_S));
+                port = open()?;
+                emit(&format!(
+                    "haply2diy emulator: port replugged (SIGUSR2), the board still set up, on {place}\n"
+                ))?;
+            }
         }
-    })
-    .map_err(|e| device_failure(&place, e.to_string()))
+    }
 }
 
 pub(super) fn emulator_command(
     path: &Path,
     on_board: bool,
     link_delay_ms: u16,
+    miswiring: Miswiring,
 ) -> Result<(), Failure> {
     use crate::device::frictionlab::emulator::{self, Endpoint, OpenError};
     let place = path.display().to_string();
@@ -470,7 +516,8 @@ pub(super) fn emulator_command(
         emulator::EmulatorCore::on_board()
     } else {
         emulator::EmulatorCore::new()
-    };
+    }
+    .miswired(miswiring);
     emulator
         .serve(
             core,
@@ -688,24 +735,16 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
             session::run_simulated(&dir, &req, Some(&interrupt), &mut |_, _| {})
                 .map_err(|e| session_failure(&args.protocol, e))
         }
-        DeviceChoice::Device(address) => session::run_device(
+        DeviceChoice::Device(address) => session::run_device_asking(
             &dir,
             &req,
             args.device_timeout,
             session::sim_participant,
             Some(&interrupt),
             &mut |_, _| {},
+            &mut Terminal::default(),
         )
-        .map_err(|e| match e {
-            SessionError::Results(_)
-            | SessionError::NothingToResume { .. }
-            | SessionError::Ended { .. }
-            | SessionError::Device(..)
-            | SessionError::WrongDevice(..)
-            | SessionError::BeyondTravel(_)
-            | SessionError::Lsl(_) => session_failure(&args.protocol, e),
-            e => device_failure(&format!("--device {address}"), e.to_string()),
-        }),
+        .map_err(|e| device_run_failure(&args.protocol, address, e)),
     }?;
     if outcome.torn_bytes > 0 {
         say(&format!(
@@ -729,6 +768,66 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
             .unwrap_or_default(),
         outcome.csv.display()
     ))
+}
+
+/// How a run on a device failed, as the command line says it: a device
+/// the run could not ride out is exit 3, its line naming the device.
+fn device_run_failure(
+    protocol: &Path,
+    address: &crate::device::Address,
+    e: SessionError,
+) -> Failure {
+    match e {
+        SessionError::Results(_)
+        | SessionError::NothingToResume { .. }
+        | SessionError::Ended { .. }
+        | SessionError::Device(..)
+        | SessionError::WrongDevice(..)
+        | SessionError::BeyondTravel(_)
+        | SessionError::Lsl(_) => session_failure(protocol, e),
+        e => device_failure(&format!("--device {address}"), e.to_string()),
+    }
+}
+
+/// What a device asks of the experimenter, put on the terminal: the
+/// request on standard error, Enter on standard input confirms. No one can
+/// be asked where standard input is no terminal.
+#[derive(Default)]
+struct Terminal {
+    /// A line read from standard input, by a thread that reads them as
+    /// they come (started at the first request).
+    lines: Option<std::sync::mpsc::Receiver<()>>,
+}
+
+impl session::Ask for Terminal {
+    fn ask(&mut self, request: crate::device::haptic::Request, within_s: f64) -> bool {
+        use std::io::{BufRead as _, IsTerminal as _};
+        if !std::io::stdin().is_terminal() {
+            return false;
+        }
+        let lines = self.lines.get_or_insert_with(|| {
+            let (tx, rx) = std::sync::mpsc::channel();
+            std::thread::spawn(move || {
+                for line in std::io::stdin().lock().lines() {
+                    if line.is_err() || tx.send(()).is_err() {
+                        break;
+                    }
+                }
+            });
+            rx
+        });
+        // Lines typed before the request answer nothing.
+        while lines.try_recv().is_ok() {}
+        say(&format!(
+            "device: {}; press Enter when it is there (within {within_s} s)",
+            request.ask()
+        ));
+        true
+    }
+
+    fn confirmed(&mut self) -> bool {
+        self.lines.as_ref().is_some_and(|l| l.try_recv().is_ok())
+    }
 }
 
 /// Installs the SIGINT/SIGTERM/SIGHUP handlers a session's run reads
@@ -1306,5 +1405,44 @@ fn render_plan(model: &str, scenario: &str, sets: &[String]) -> Result<RenderPla
             })
         }
         _ => Err(errors),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Issue 63: a run whose haptic loop died, or whose device kept
+    /// failing, exits 3 with one line naming the device.
+    #[test]
+    fn a_device_failure_is_exit_3_with_one_line_naming_the_device() {
+        let address = crate::device::Address::parse("haply2diy:/dev/ttyACM0").unwrap();
+        for failure in [
+            session::DeviceFailure::LoopDied("its thread panicked: oops".into()),
+            session::DeviceFailure::Faults {
+                trial: 4,
+                presentations: 3,
+                fault: "device lost".into(),
+            },
+        ] {
+            let f = device_run_failure(
+                Path::new("p.json"),
+                &address,
+                SessionError::DeviceFailed {
+                    failure,
+                    completed: 2,
+                },
+            );
+            let line = f.errors[0].to_string();
+            assert_eq!((f.code, f.errors.len()), (super::super::EXIT_DEVICE, 1));
+            assert!(
+                line.starts_with("--device haply2diy:/dev/ttyACM0: "),
+                "{line}"
+            );
+            assert!(
+                line.ends_with("(2 trials completed are in the log)"),
+                "{line}"
+            );
+        }
     }
 }

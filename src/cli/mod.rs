@@ -12,8 +12,10 @@ use crate::problem::Problem as UserError;
 use crate::results::ResultsError;
 use crate::session::{DeviceChoice, SessionError};
 
+mod check_device;
 mod commands;
 
+use check_device::check_device_command;
 use commands::{
     analyze_command, claims_command, emulator_command, firmware_qemu_command, gui_command,
     haply2diy_emulator_command, identify_command, inverse3_emulator_command, models_json,
@@ -182,13 +184,32 @@ enum Command {
     /// Lists the devices this machine has, of every kind, as `--device`
     /// names them.
     Ports,
+    /// The bring-up check of a device before its first session, through
+    /// the haptic loop a session uses: the handshake, the loop's rate and
+    /// jitter, the encoder's direction and scale against the stated travel
+    /// (the experimenter moves the handle to each end when told), the
+    /// force's direction (a small push with the handle let go) and the
+    /// wall that holds the hand on the track. Prints each step's PASS or
+    /// FAIL with its numbers, and keeps a report in
+    /// DIR/device-checks/<device>_<time>.json, which later sessions' log
+    /// headers name. Exit 0 when every step passed, 3 when one failed or
+    /// the device did not answer (docs/guide/devices.md, "Bring-up
+    /// check").
+    CheckDevice(CheckDeviceArgs),
     /// Runs an emulated device on a serial port, or on a new
     /// pseudo-terminal linked at PATH if nothing is there (a link an
     /// earlier emulator left, to a pseudo-terminal now gone, is replaced).
     /// `PATH`: frictionlab's own board (the simulated apparatus), silent
     /// until a host says Hello, serving host after host until stopped.
     /// `haply2diy:PATH`: a Haply 2DIY board (its firmware's protocol) on a
-    /// pantograph, powered up at the vendor's calibration pose.
+    /// pantograph, powered up at the vendor's calibration pose; a reset
+    /// leaves the handle where it is. For tests, SIGUSR1 makes the board
+    /// lose its setup (as one that restarted: torque frames answered with
+    /// its id alone, the handle where it is), and SIGUSR1 again, while it
+    /// is not set up, puts the handle at its calibration pose (as the
+    /// experimenter is asked to); SIGUSR2 takes its port away for 0.5 s
+    /// and brings it back, the board still set up (a USB replug it rode
+    /// out).
     /// `inverse3[:HOST:PORT]`: a Haply Inverse Service (default
     /// 127.0.0.1:10001) with one Inverse3 on it.
     DeviceEmulator {
@@ -227,6 +248,8 @@ enum Command {
         /// test how a host copes).
         #[arg(long, value_name = "MS", default_value_t = 0, value_parser = clap::value_parser!(u16).range(0..=10_000))]
         link_delay_ms: u16,
+        #[command(flatten)]
+        miswiring: MiswiringArgs,
     },
     /// Boots the firmware (`firmware/`) in QEMU's mps2-an386 and prints the
     /// pseudo-terminal its UART is on, for `run --device PATH`; runs until
@@ -304,6 +327,74 @@ struct RunArgs {
     device_timeout: f64,
     #[command(flatten)]
     lsl: LslArgs,
+}
+
+/// `device-emulator`: the device wired wrong, to try the bring-up check
+/// (`check-device`) on the faults it is there to catch (issue 63).
+#[derive(Debug, Clone, Copy, clap::Args)]
+struct MiswiringArgs {
+    /// The encoder counts the other way: our board's count, both of the
+    /// 2DIY's encoders against its setup, the Inverse3's position along
+    /// the track (mirrored about the track's origin).
+    #[arg(long)]
+    flip_encoder: bool,
+    /// The motor turns the other way: our board's force, both of the
+    /// 2DIY's motors against its setup, the Inverse3's force along the
+    /// track.
+    #[arg(long)]
+    flip_motor: bool,
+    /// The encoder counts X times the steps per metre (our board, the
+    /// Inverse3 along the track) or per turn (the 2DIY) the device states.
+    #[arg(long, value_name = "X", default_value_t = 1.0)]
+    encoder_scale: f64,
+}
+
+impl MiswiringArgs {
+    fn miswiring(self) -> Result<crate::device::miswiring::Miswiring, Failure> {
+        let m = crate::device::miswiring::Miswiring {
+            flip_encoder: self.flip_encoder,
+            flip_motor: self.flip_motor,
+            encoder_scale: self.encoder_scale,
+        };
+        match m.problem() {
+            Some(p) => Err(vec![UserError::new("--encoder-scale", p)].into()),
+            None => Ok(m),
+        }
+    }
+}
+
+/// `check-device --responder`: who does what the check asks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Experimenter {
+    /// A person: prompts on standard error, Enter on standard input.
+    Person,
+    /// A simulated experimenter, for an emulated device: it drives the
+    /// emulated hand as each prompt asks.
+    Sim,
+}
+
+#[derive(Debug, clap::Args)]
+struct CheckDeviceArgs {
+    /// `sim` (the simulated apparatus in real time), a serial port's path
+    /// (frictionlab's own board) or `KIND:TARGET` (`frictionlab ports`
+    /// lists them).
+    #[arg(long, value_parser = parse_device)]
+    device: DeviceChoice,
+    /// A device setting, `NAME=VALUE` (repeatable), as for `run`.
+    #[arg(long = "device-set", value_name = "NAME=VALUE")]
+    device_set: Vec<String>,
+    /// The results folder the report is kept in (DIR/device-checks/).
+    #[arg(long)]
+    out: PathBuf,
+    /// Who does what the prompts ask.
+    #[arg(long, value_enum, default_value_t = Experimenter::Person)]
+    responder: Experimenter,
+    /// Give up (exit 3) when the device has not answered for this long, s.
+    #[arg(long, default_value_t = DEFAULT_DEVICE_TIMEOUT_S)]
+    device_timeout: f64,
+    /// How long the loop's rate and jitter are measured, s.
+    #[arg(long, default_value_t = crate::device::check::DEFAULT_DURATION_S)]
+    duration_s: f64,
 }
 
 #[derive(Debug, clap::Args)]
@@ -490,6 +581,12 @@ pub fn main() -> ExitCode {
         } => validation_command(&dir, no_sweep, jobs),
         Command::Identify(args) => identify_command(&args),
         Command::Ports => ports_command(),
+        Command::CheckDevice(mut args) => {
+            if let DeviceChoice::Device(address) = &mut args.device {
+                address.settings.set.clone_from(&args.device_set);
+            }
+            check_device_command(&args)
+        }
         Command::DeviceEmulator {
             path,
             service_version,
@@ -498,17 +595,22 @@ pub fn main() -> ExitCode {
             transcript,
             on_board,
             link_delay_ms,
-        } => match path.strip_prefix("haply2diy:") {
-            _ if path == "inverse3" || path.starts_with("inverse3:") => inverse3_emulator_command(
-                path.trim_start_matches("inverse3").trim_start_matches(':'),
-                service_version,
-                no_device,
-                lockstep,
-            ),
-            Some(path) => {
-                haply2diy_emulator_command(Path::new(path), lockstep, transcript.as_deref())
+            miswiring,
+        } => match (path.strip_prefix("haply2diy:"), miswiring.miswiring()) {
+            (_, Err(e)) => Err(e),
+            (_, Ok(m)) if path == "inverse3" || path.starts_with("inverse3:") => {
+                inverse3_emulator_command(
+                    path.trim_start_matches("inverse3").trim_start_matches(':'),
+                    service_version,
+                    no_device,
+                    lockstep,
+                    m,
+                )
             }
-            None if lockstep || transcript.is_some() => {
+            (Some(path), Ok(m)) => {
+                haply2diy_emulator_command(Path::new(path), lockstep, transcript.as_deref(), m)
+            }
+            (None, _) if lockstep || transcript.is_some() => {
                 let (flag, only) = if lockstep {
                     ("--lockstep", "haply2diy:PATH or inverse3")
                 } else {
@@ -519,7 +621,7 @@ pub fn main() -> ExitCode {
                     format!("only for an emulated {only}"),
                 )]))
             }
-            None => emulator_command(Path::new(&path), on_board, link_delay_ms),
+            (None, Ok(m)) => emulator_command(Path::new(&path), on_board, link_delay_ms, m),
         },
         Command::FirmwareQemu { elf, link } => firmware_qemu_command(&elf, link.as_deref()),
         Command::Schema { which } => emit(&if which == "log" {
@@ -606,7 +708,10 @@ impl From<SessionError> for Failure {
             SessionError::Lost { .. }
             | SessionError::NeverConnected { .. }
             | SessionError::OffTrack { .. }
-            | SessionError::Loop(_) => device_failure("--device", e.to_string()),
+            | SessionError::Loop(_)
+            | SessionError::DeviceFailed { .. }
+            | SessionError::NotConfirmed { .. }
+            | SessionError::NotBackOnTrack { .. } => device_failure("--device", e.to_string()),
             SessionError::Lsl(message) => Failure {
                 code: EXIT_FAILURE,
                 errors: vec![UserError::new("--lsl", message)],

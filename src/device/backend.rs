@@ -32,6 +32,31 @@ pub enum LinkState {
     Lost,
 }
 
+/// What a device asks of the experimenter before it can go on: the loop
+/// reports it in its ticks ([`Tick::request`]) for as long as it stands,
+/// the session passes it on to its shell, and the experimenter's answer
+/// comes back to the device as [`Backend::confirm`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Request {
+    /// The device lost its setup and counts its position from where the
+    /// handle is when it is set up again: the handle is to be put at the
+    /// device's calibration pose, then confirmed. Until then the device
+    /// renders nothing and its link is lost.
+    CalibrationPose,
+}
+
+impl Request {
+    /// What the experimenter is asked, one line.
+    #[must_use]
+    pub fn ask(self) -> &'static str {
+        match self {
+            Request::CalibrationPose => {
+                "the board lost its setup and counts its position from where the handle is when it is set up again: put the handle at its calibration pose, then confirm"
+            }
+        }
+    }
+}
+
 /// What a device can do.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Capabilities {
@@ -76,8 +101,11 @@ pub struct Reading {
     pub button: bool,
     /// The device reported its watchdog tripped (it renders nothing).
     pub watchdog: bool,
-    /// What is wrong with what comes from the port, while no valid answer
-    /// has (it answers, but not in this device's protocol).
+    /// What is wrong with what comes from the port (it answers, but not in
+    /// this device's protocol): while no valid answer has come, or, where
+    /// a device judges its answers as they come, at any time. No session
+    /// starts on a device with a problem, and one that has started ends
+    /// its run.
     pub problem: Option<&'static str>,
 }
 
@@ -140,8 +168,7 @@ pub struct Tick {
     /// The force sent on every axis, N, device frame (friction along the
     /// track and the walls that hold the hand on it).
     pub force_vector_n: Vector,
-    /// What is wrong with the device's answers, while it has given no
-    /// valid one ([`Reading::problem`]).
+    /// What is wrong with the device's answers ([`Reading::problem`]).
     pub problem: Option<&'static str>,
     /// The normal force the model rendered with, N, where it is the hand's
     /// press into the track's surface (seed 000's `F_N = k y`; a device
@@ -175,6 +202,9 @@ pub struct Tick {
     /// ([`Capabilities::force_limit_n`]; a device may state it only once
     /// connected).
     pub device_limit_n: f64,
+    /// What the device asks of the experimenter, while it asks
+    /// ([`Backend::request`]).
+    pub request: Option<Request>,
 }
 
 impl Tick {
@@ -215,6 +245,7 @@ impl Tick {
             },
             non_finite: false,
             device_limit_n: crate::friction::ForceLimit::<f64>::default().newtons(),
+            request: None,
         }
     }
 }
@@ -263,6 +294,17 @@ pub trait Backend: Send {
     /// The link's statistics so far.
     fn stats(&self) -> LinkStats {
         LinkStats::default()
+    }
+
+    /// What the device asks of the experimenter now, if anything (asked
+    /// after each `read`).
+    fn request(&self) -> Option<Request> {
+        None
+    }
+
+    /// The experimenter did what the device asked ([`Backend::request`]).
+    fn confirm(&mut self, now_s: f64) {
+        let _ = now_s;
     }
 }
 

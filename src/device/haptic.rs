@@ -29,7 +29,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use super::backend::{Backend, LinkState, MAX_AXES, Vector};
-pub use super::backend::{Mode, Tick, UNKNOWN_RENDER};
+pub use super::backend::{Mode, Request, Tick, UNKNOWN_RENDER};
 use super::track::Track;
 use crate::friction::{ForceLimit, Input, ModelParams, StepParams};
 use crate::hand::HandDrive;
@@ -54,6 +54,16 @@ pub enum ToLoop {
     /// From now on, offer each connected tick to this sink, on the loop's
     /// thread (whoever asked: the loop knows no reader).
     Offer(Offer),
+    /// The experimenter did what the device asked (a tick's `request`).
+    Confirm,
+    /// The bring-up check's pulse ([`super::check`]): from now on add this
+    /// force along the track, N, to the model's (0: none), within the
+    /// limit.
+    Push(f64),
+    /// The bring-up check: render the wall that holds the hand on the
+    /// track (true, as from the start) or not (a device wired the wrong
+    /// way round would push the hand away).
+    Wall(bool),
 }
 
 /// Whoever wants the loop's ticks as they happen: called on the loop's
@@ -204,6 +214,29 @@ impl HapticLoop {
         self.from_loop.pop().ok()
     }
 
+    /// Whether the loop's thread has ended without being told to stop
+    /// (it panicked, or returned): why, said once (later calls, and
+    /// [`HapticLoop::stop`] after it, find no thread).
+    pub fn died(&mut self) -> Option<String> {
+        if self.stop.load(Ordering::Relaxed)
+            || !self.handle.as_ref().is_some_and(JoinHandle::is_finished)
+        {
+            return None;
+        }
+        let handle = self.handle.take()?;
+        Some(match handle.join() {
+            Ok(_) => "its thread returned while not told to stop".to_owned(),
+            Err(panic) => {
+                let what = panic
+                    .downcast_ref::<&str>()
+                    .map(|s| (*s).to_owned())
+                    .or_else(|| panic.downcast_ref::<String>().cloned())
+                    .unwrap_or_else(|| "no message".to_owned());
+                format!("its thread panicked: {what}")
+            }
+        })
+    }
+
     /// Stops the loop (force zeroed) and returns its statistics.
     #[must_use]
     pub fn stop(mut self) -> LoopStats {
@@ -308,6 +341,7 @@ fn run(
     };
     let mut deadline = Instant::now() + period;
     let mut sink: Option<Offer> = None;
+    let (mut push_n, mut wall) = (0.0_f64, true);
     while !stop.load(Ordering::Relaxed) {
         spin_sleep::sleep_until(deadline);
         let woke = Instant::now();
@@ -369,6 +403,9 @@ fn run(
                 }
                 ToLoop::Hand(drive) => device.drive_hand(&drive),
                 ToLoop::Offer(offer) => sink = Some(offer),
+                ToLoop::Confirm => device.confirm(now),
+                ToLoop::Push(f) => push_n = if f.is_finite() { f } else { 0.0 },
+                ToLoop::Wall(on) => wall = on,
             }
         }
 
@@ -399,13 +436,15 @@ fn run(
         if !finite {
             non_finite += 1;
         }
-        let (along_n, vibration) = if connected && finite {
-            (out.force_n, out.vibration)
-        } else {
-            (0.0, 0.0)
+        let (along_n, vibration) = match (connected, finite) {
+            (true, true) => (out.force_n + push_n, out.vibration),
+            (true, false) => (push_n, 0.0),
+            (false, _) => (0.0, 0.0),
         };
-        let force = if connected {
+        let force = if connected && wall {
             track.force(along_n, motion.offset, motion.offset_v, in_force)
+        } else if connected {
+            track.force(along_n, [0.0; MAX_AXES], [0.0; MAX_AXES], in_force)
         } else {
             [0.0; MAX_AXES]
         };
@@ -430,6 +469,7 @@ fn run(
                     limit_n: renderer.limit().newtons(),
                 },
                 device_limit_n,
+                request: device.request(),
                 ..Tick::on_axis(now, motion.along, motion.v, along_n, vibration)
             },
         );

@@ -6,6 +6,7 @@
 //! [`haply2diy`] (the Haply 2DIY), [`inverse3`] (the Haply Inverse3).
 
 pub mod backend;
+pub mod check;
 pub mod frictionlab;
 pub mod hand_link;
 pub mod haply2diy;
@@ -13,6 +14,7 @@ pub mod haptic;
 pub mod inverse3;
 #[cfg(test)]
 mod loopback;
+pub mod miswiring;
 pub mod pty;
 pub mod realtime;
 pub mod sim;
@@ -35,6 +37,8 @@ pub struct Kind {
     pub bare: bool,
     /// Checks a target without opening it (nothing is touched).
     pub check: fn(&str) -> Result<(), String>,
+    /// Checks `--device-set` settings without opening anything.
+    pub check_settings: fn(&[String]) -> Result<(), String>,
     /// Opens the device at a target, with the `--device-set` settings.
     pub open: Opener,
     /// The devices of this kind the machine has now.
@@ -132,6 +136,14 @@ impl Address {
     /// What is wrong, for `error: --device: <address>: <what>`.
     pub fn check(&self) -> Result<(), String> {
         (self.kind().check)(&self.target)
+    }
+
+    /// Checks its settings without opening the device.
+    ///
+    /// # Errors
+    /// What is wrong, for `error: --device-set: <what>`.
+    pub fn check_settings(&self) -> Result<(), String> {
+        (self.kind().check_settings)(&self.settings.set)
     }
 
     /// Opens the device.

@@ -22,6 +22,7 @@
 //! keeps the frame-time statistics.
 
 mod builder;
+mod check;
 mod choose;
 mod frames;
 pub(crate) mod participant;
@@ -141,6 +142,8 @@ pub(crate) enum Command {
     Close,
     /// Acknowledge instructions, a break or a prompt.
     Continue,
+    /// The experimenter did what the device asked.
+    ConfirmDevice,
     /// A typed magnitude.
     Magnitude(String),
     /// A paired-comparison answer.
@@ -165,6 +168,12 @@ pub(crate) enum Command {
     OpenReport,
     /// Resume the unfinished session with this log.
     ResumeLog(PathBuf),
+    /// Start the bring-up check of the device chosen (issue 63).
+    CheckDevice,
+    /// The experimenter did what the check asked.
+    CheckConfirm,
+    /// Stop the check, or close the one that has ended.
+    CheckClose,
 }
 
 /// The experimenter's panels when no session is open.
@@ -197,6 +206,8 @@ pub struct FrictionlabApp {
     /// The participant's workspace strip as last drawn.
     canvas: Option<egui::Rect>,
     interrupt: Option<crate::interrupt::Interrupt>,
+    /// The bring-up check in the Setup tab, while it is shown.
+    check: Option<check::CheckPanel>,
 }
 
 impl FrictionlabApp {
@@ -218,6 +229,7 @@ impl FrictionlabApp {
             frames: FrameStats::default(),
             canvas: None,
             interrupt,
+            check: None,
         };
         if let Some(start) = start {
             let resume = start.resume || (start.or_resume && app.setup.has_unfinished());
@@ -281,6 +293,7 @@ impl FrictionlabApp {
                 Ok(())
             }
             Command::Continue => self.with_live(|l| l.feed(Feed::Input(Input::Continue))),
+            Command::ConfirmDevice => self.with_live(|l| l.feed(Feed::Confirm)),
             Command::Magnitude(text) => {
                 let r =
                     self.with_live(|l| l.feed(Feed::Input(Input::Answer(Answer::Magnitude(text)))));
@@ -331,6 +344,9 @@ impl FrictionlabApp {
                     self.session.new_session();
                 })
             }),
+            Command::CheckDevice | Command::CheckConfirm | Command::CheckClose => {
+                self.apply_check(&command)
+            }
             Command::SaveNote => match self.session.note_to_save() {
                 None => Ok(()),
                 Some(text) => {
@@ -344,6 +360,26 @@ impl FrictionlabApp {
         };
         if let Err(e) = result {
             self.error = Some(e);
+        }
+    }
+
+    /// The bring-up check's commands.
+    fn apply_check(&mut self, command: &Command) -> Result<(), String> {
+        match command {
+            Command::CheckDevice => self.setup.start_check().map(|c| {
+                self.check = Some(c);
+                self.error = None;
+            }),
+            Command::CheckConfirm => {
+                if let Some(c) = &mut self.check {
+                    c.confirm();
+                }
+                Ok(())
+            }
+            _ => {
+                self.check = None;
+                Ok(())
+            }
         }
     }
 
@@ -393,7 +429,10 @@ impl FrictionlabApp {
             });
             ui.separator();
             match self.tab {
-                Tab::Setup => commands.extend(self.setup.ui(ui)),
+                Tab::Setup => match &self.check {
+                    Some(check) => commands.extend(check.ui(ui)),
+                    None => commands.extend(self.setup.ui(ui)),
+                },
                 Tab::Results => {
                     let folder = self.setup.folder().to_owned();
                     commands.extend(self.results.ui(ui, &folder, self.now));
@@ -438,6 +477,12 @@ impl eframe::App for FrictionlabApp {
                 self.error = Some(format!("error: {e}"));
             }
             if matches!(live.state(), SessionState::Running | SessionState::Paused) {
+                ctx.request_repaint();
+            }
+        }
+        if let Some(check) = &mut self.check {
+            check.pump();
+            if check.running() {
                 ctx.request_repaint();
             }
         }

@@ -108,6 +108,7 @@ impl SessionPanel {
                     }
                 });
         }
+        device_asks(ui, live, &mut commands);
         device_line(ui, live);
         ui.checkbox(&mut self.fullscreen, "Participant window full screen");
         let label = ui.label("Note for the session log");
@@ -133,6 +134,31 @@ impl SessionPanel {
     }
 }
 
+/// What the device asks of the experimenter, with the button that
+/// confirms it; why it failed, once it has.
+fn device_asks(ui: &mut egui::Ui, live: &LiveSession, commands: &mut Vec<Command>) {
+    if let Some(request) = live.device_request() {
+        egui::Frame::group(ui.style())
+            .fill(Color32::from_rgb(90, 40, 20))
+            .show(ui, |ui| {
+                ui.label(RichText::new(format!("Device: {}.", request.ask())).strong());
+                if ui
+                    .button("The handle is at its calibration pose: confirm")
+                    .clicked()
+                {
+                    commands.push(Command::ConfirmDevice);
+                }
+            });
+    }
+    if let Some(failure) = live.device_failure() {
+        ui.label(
+            RichText::new(format!("The device failed: {failure}"))
+                .color(super::ERROR_RED)
+                .strong(),
+        );
+    }
+}
+
 /// The device's live status, one line.
 fn device_line(ui: &mut egui::Ui, live: &LiveSession) {
     let d = live.device_status();
@@ -153,4 +179,66 @@ fn device_line(ui: &mut egui::Ui, live: &LiveSession) {
         d.force_n,
         d.x_m * 1e3
     ));
+}
+
+#[cfg(test)]
+mod tests {
+    use eframe::egui;
+    use egui_kittest::{Harness, kittest::Queryable};
+
+    use crate::gui::{AutoStart, FrictionlabApp, Launch};
+    use crate::session::DeviceChoice;
+
+    const CONFIRM: &str = "The handle is at its calibration pose: confirm";
+
+    /// Issue 63: what the device asks is shown in the session panel with a
+    /// button; clicking it confirms, and the device answers again (the
+    /// test-only device `loopback:asks` asks from 1 s in, until confirmed).
+    #[test]
+    fn the_window_shows_what_the_device_asks_and_its_button_confirms_it() {
+        let tmp = tempfile::tempdir().unwrap();
+        let launch = Launch {
+            protocol: Some(
+                std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                    .join("protocols/magnitude-quick.json"),
+            ),
+            participant: "win".into(),
+            out: tmp.path().to_path_buf(),
+            device: DeviceChoice::Device(crate::device::Address::parse("loopback:asks").unwrap()),
+            start: Some(AutoStart {
+                resume: false,
+                or_resume: false,
+                seed: Some(1),
+                participant_index: None,
+            }),
+            ..Launch::default()
+        };
+        let mut h = Harness::builder()
+            .with_size(egui::vec2(1920.0, 1200.0))
+            .build_eframe(move |_cc| FrictionlabApp::new(launch));
+        let start = std::time::Instant::now();
+        while h.query_by_label(CONFIRM).is_none() && start.elapsed().as_secs() < 10 {
+            h.step();
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        let live = h.state().live().expect("a session is open");
+        assert!(live.device_request().is_some(), "{:?}", h.state().error());
+        assert!(!live.device_status().connected);
+        assert!(
+            h.query_by_label_contains("put the handle at its calibration pose")
+                .is_some()
+        );
+        h.get_by_label(CONFIRM).click();
+        let clicked = std::time::Instant::now();
+        while !h.state().live().unwrap().device_status().connected
+            && clicked.elapsed().as_secs() < 5
+        {
+            h.step();
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        let live = h.state().live().unwrap();
+        assert!(live.device_status().connected, "the device answers again");
+        assert!(live.device_request().is_none());
+        assert!(h.query_by_label(CONFIRM).is_none(), "the request is gone");
+    }
 }

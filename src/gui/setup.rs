@@ -78,6 +78,10 @@ pub(super) struct SetupPanel {
     lsl_lib: (Option<std::sync::Arc<crate::lsl::Lsl>>, Option<PathBuf>),
     /// Why the desktop's chooser gave no path, if it did not.
     chooser: Option<String>,
+    /// The bring-up check: the simulated experimenter does what it asks
+    /// (an emulated device), and how long it measures the loop, s.
+    check_sim: bool,
+    check_duration_s: f64,
 }
 
 impl SetupPanel {
@@ -97,6 +101,8 @@ impl SetupPanel {
             lsl: launch.lsl.is_some(),
             lsl_lib: (launch.lsl, launch.lsl_lib),
             chooser: None,
+            check_sim: false,
+            check_duration_s: crate::device::check::DEFAULT_DURATION_S,
         };
         match launch.protocol {
             Some(path) => {
@@ -185,6 +191,29 @@ impl SetupPanel {
             bytes,
         ));
         Ok(())
+    }
+
+    /// Starts the bring-up check of the device chosen, its report kept in
+    /// the output folder.
+    ///
+    /// # Errors
+    /// No device or folder chosen, or the check cannot start.
+    pub(super) fn start_check(&self) -> Result<super::check::CheckPanel, String> {
+        if let DeviceChoice::Device(a) = &self.device
+            && a.target.is_empty()
+            && a.kind().bare
+        {
+            return Err("cannot check: choose a device".into());
+        }
+        if self.out.trim().is_empty() {
+            return Err("cannot check: choose an output folder".into());
+        }
+        super::check::CheckPanel::start(
+            &self.device,
+            self.out.trim(),
+            self.check_duration_s,
+            self.check_sim,
+        )
     }
 
     /// Lists the serial ports again.
@@ -484,6 +513,22 @@ impl SetupPanel {
                 if self.ports.is_empty() {
                     ui.label(RichText::new("no devices found").weak());
                 }
+            });
+            ui.horizontal(|ui| {
+                if ui.button("Check device").clicked() {
+                    commands.push(Command::CheckDevice);
+                }
+                let label = ui.label("loop timing over");
+                ui.add(
+                    egui::DragValue::new(&mut self.check_duration_s)
+                        .range(1.0..=60.0)
+                        .suffix(" s"),
+                )
+                .labelled_by(label.id);
+                ui.checkbox(
+                    &mut self.check_sim,
+                    "simulated experimenter (an emulated device)",
+                );
             });
             ui.checkbox(
                 &mut self.lsl,

@@ -709,7 +709,16 @@ impl SimParticipant {
         let t = self.traits;
         let noise = self.normal(t.answer_noise);
         let value = t.modulus * perceived.max(1e-12).powf(t.exponent_of(quality)) * noise.exp();
-        format!("{value:.4}")
+        let text = format!("{value:.4}");
+        // A value that rounds to 0.0000 keeps its digits: the engine
+        // refuses an answer of zero and asks again, and the same answer
+        // again looped inside one settle for ever (issue 63: a session on
+        // a device that had given it nothing to feel spun at full CPU).
+        if text.parse::<f64>().is_ok_and(|x| x > 0.0) {
+            text
+        } else {
+            format!("{value:.4e}")
+        }
     }
 
     fn magnitude_answer(&mut self) -> String {
@@ -787,6 +796,21 @@ impl SimParticipant {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 63: a magnitude answered with nothing felt is still a number
+    /// greater than zero, as the engine asks: once it rounded to "0.0000",
+    /// which the engine refuses and asks again, for ever.
+    #[test]
+    fn a_magnitude_answered_with_nothing_felt_is_one_the_engine_takes() {
+        for seed in 0..200 {
+            let mut p = SimParticipant::new(seed, "p", &crate::participant::Population::default());
+            let text = p.magnitude_answer();
+            assert!(
+                crate::kinds::magnitude::parse_magnitude(&text).is_ok(),
+                "seed {seed}: {text}"
+            );
+        }
+    }
 
     /// The stepped stroke stays on the exact sinusoid over a 10 s
     /// exploration at 5 kHz (a clock summed tick by tick, as the session's),

@@ -20,12 +20,14 @@
 //! the session added), `folder.rs` (the folder's layout, file names, session
 //! numbering), `export.rs` (the data CSVs and `dataset_description.json`;
 //! each kind writes its own cells with `csv.rs`), `reader.rs` (the one CSV
-//! reader), `verify.rs` (each data CSV held against its log) and
-//! `atomic.rs` (the one atomic file write).
+//! reader), `verify.rs` (each data CSV held against its log),
+//! `atomic.rs` (the one atomic file write) and `device_checks.rs` (the
+//! bring-up checks' reports, `DIR/device-checks/`).
 
 mod atomic;
 mod compact;
 pub mod csv;
+pub mod device_checks;
 mod export;
 mod folder;
 mod lock;

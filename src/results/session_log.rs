@@ -58,6 +58,11 @@ pub struct Header<K: Kinds> {
     /// track (issue 63; absent in logs from before).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub device_limits: Option<crate::device::backend::DeviceLimits>,
+    /// The last bring-up check made on the device in the results folder
+    /// when the session began (`frictionlab check-device`, issue 63; absent:
+    /// none was, or a log from before).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub device_check: Option<super::device_checks::DeviceCheckRef>,
     /// Responder (`sim` or `gui`).
     pub responder: String,
     /// Number of planned trials.

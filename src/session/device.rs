@@ -52,6 +52,8 @@ pub(super) struct Port {
     button: bool,
     last_hand_s: f64,
     hand_segment: Option<u32>,
+    /// The loop's thread died (no statistics to stop it for).
+    died: bool,
 }
 
 impl Port {
@@ -74,6 +76,7 @@ impl Port {
             button: false,
             last_hand_s: f64::NEG_INFINITY,
             hand_segment: None,
+            died: false,
         }
     }
 
@@ -99,6 +102,18 @@ impl Port {
     /// (those that queued while the session waited before its start).
     pub(super) fn skip_queued(&mut self) {
         while self.haptic.recv().is_some() {}
+    }
+
+    /// Whether the loop's thread died untold: why, said once.
+    pub(super) fn died(&mut self) -> Option<String> {
+        let why = self.haptic.died()?;
+        self.died = true;
+        Some(why)
+    }
+
+    /// Tells the device the experimenter did what it asked.
+    pub(super) fn confirm(&mut self) {
+        self.haptic.send(ToLoop::Confirm);
     }
 
     /// Has the loop offer each connected tick to `sink` from now on.
@@ -357,7 +372,7 @@ impl Device {
         };
         let rate_hz = port.rate_hz;
         match std::mem::replace(self, Device::Stopped { rate_hz }) {
-            Device::Port(port) => Some(port.haptic.stop()),
+            Device::Port(port) if !port.died => Some(port.haptic.stop()),
             _ => None,
         }
     }

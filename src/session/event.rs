@@ -46,6 +46,10 @@ pub enum Feed {
     /// Stop the haptic loop, its statistics in the log (a shell giving up
     /// on a device).
     StopDevice,
+    /// The experimenter did what the device asked ([`Event::DeviceRequest`]):
+    /// the device is told, and the log notes it. Nothing when no request
+    /// stands.
+    Confirm,
     /// A session that waits for its shell ([`super::Session::wait_for_shell`])
     /// may start: the shell has done what it does at [`Event::Ready`].
     Go,
@@ -111,6 +115,15 @@ pub enum Event {
     DeviceLost {
         /// Session time.
         t: Time,
+    },
+    /// The device asks the experimenter for something before it can go on
+    /// (its link is lost meanwhile); the shell puts it to the experimenter
+    /// and answers [`Feed::Confirm`] once it is done. Once per request.
+    DeviceRequest {
+        /// Session time.
+        t: Time,
+        /// What it asks.
+        request: crate::device::haptic::Request,
     },
     /// The device answers again.
     DeviceBack {

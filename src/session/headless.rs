@@ -216,17 +216,39 @@ pub fn simulate_in_memory(sim: &Simulation<'_>, i: u32) -> Result<ReadLog, Sessi
     Ok(run.into_session().into_records())
 }
 
+/// Who a headless run puts a device's request to
+/// ([`super::Event::DeviceRequest`]): the command line asks on its
+/// terminal.
+pub trait Ask {
+    /// Puts `request` to the experimenter, who has `within_s` to confirm;
+    /// false when no one can be asked here.
+    fn ask(&mut self, request: crate::device::haptic::Request, within_s: f64) -> bool;
+
+    /// Whether the experimenter confirmed since the last `ask`.
+    fn confirmed(&mut self) -> bool;
+}
+
+/// No one to ask: a run nobody watches.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NobodyToAsk;
+
+impl Ask for NobodyToAsk {
+    fn ask(&mut self, _: crate::device::haptic::Request, _: f64) -> bool {
+        false
+    }
+
+    fn confirmed(&mut self) -> bool {
+        false
+    }
+}
+
 /// Runs (or resumes) one session on the device of `req` (a serial port; the
 /// emulator's pseudo-terminal for a simulated participant), in real time,
-/// with `responder` made from the session header answering. Nothing is
-/// written until the device answers. A device lost mid-trial costs that
-/// trial (aborted and re-queued) and holds the session until it answers
-/// again; after `timeout_s` without an answer the run gives up. A signal
-/// in `stop` ends the run as in [`run_planned`].
+/// with `responder` made from the session header answering, and no one to
+/// ask for what the device asks ([`run_device_asking`]).
 ///
 /// # Errors
-/// Bad input, I/O on the results, or a device silent for longer than the
-/// timeout.
+/// As [`run_device_asking`].
 pub fn run_device<R: Responder>(
     dir: &ResultsDir,
     req: &SessionRequest<'_>,
@@ -235,12 +257,54 @@ pub fn run_device<R: Responder>(
     stop: Option<&Interrupt>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<SessionOutcome, SessionError> {
+    run_device_asking(
+        dir,
+        req,
+        timeout_s,
+        responder,
+        stop,
+        progress,
+        &mut NobodyToAsk,
+    )
+}
+
+/// Runs (or resumes) one session on the device of `req`, in real time,
+/// with `responder` made from the session header answering. Nothing is
+/// written until the device answers. A device lost mid-trial costs that
+/// trial (aborted and re-queued) and holds the session until it answers
+/// again; after `timeout_s` without an answer the run gives up. What the
+/// device asks of the experimenter is put to `ask`, and the run ends
+/// when no one can be asked or no one confirms within `timeout_s` (the
+/// lost device's wait is suspended meanwhile, and starts again at the
+/// confirmation). A device that keeps failing ends the run (the session's
+/// rule). A signal in `stop` ends the run as in [`run_planned`].
+///
+/// # Errors
+/// Bad input, I/O on the results, a device silent for longer than the
+/// timeout, a device that failed, or a request not confirmed.
+pub fn run_device_asking<R: Responder>(
+    dir: &ResultsDir,
+    req: &SessionRequest<'_>,
+    timeout_s: f64,
+    responder: impl FnOnce(&Header) -> R,
+    stop: Option<&Interrupt>,
+    progress: &mut dyn FnMut(usize, usize),
+    ask: &mut dyn Ask,
+) -> Result<SessionOutcome, SessionError> {
     let mut session = Run::begin(dir, req, responder)?;
     let wall = Instant::now();
-
+    // Since when a request has waited for the experimenter, and when the
+    // last one was confirmed (the waits for the device start again there).
+    let (mut asked, mut confirmed): (Option<Instant>, Option<Instant>) = (None, None);
     let mut seen = 0;
     loop {
         session.feed(Feed::Poll)?;
+        if let Some(failure) = session.device_failure() {
+            return Err(SessionError::DeviceFailed {
+                failure: failure.clone(),
+                completed: session.completed(),
+            });
+        }
         if let Some(signal) = stopped(&mut session, stop)? {
             return Ok(session.outcome().interrupted_by(signal));
         }
@@ -248,7 +312,39 @@ pub fn run_device<R: Responder>(
         if session.state() == SessionState::Finished {
             return Ok(session.outcome());
         }
-        if !session.is_open() && wall.elapsed().as_secs_f64() > timeout_s {
+        match (session.device_request(), asked) {
+            (Some(request), None) => {
+                if !ask.ask(request, timeout_s) {
+                    session.feed(Feed::StopDevice)?;
+                    return Err(SessionError::NotConfirmed {
+                        request,
+                        within_s: None,
+                        completed: session.completed(),
+                    });
+                }
+                asked = Some(Instant::now());
+            }
+            (Some(request), Some(since)) => {
+                if ask.confirmed() {
+                    session.feed(Feed::Confirm)?;
+                    (asked, confirmed) = (None, Some(Instant::now()));
+                } else if since.elapsed().as_secs_f64() > timeout_s {
+                    session.feed(Feed::StopDevice)?;
+                    return Err(SessionError::NotConfirmed {
+                        request,
+                        within_s: Some(timeout_s),
+                        completed: session.completed(),
+                    });
+                }
+            }
+            (None, _) => asked = None,
+        }
+        let waited_s = |since: Instant| {
+            confirmed
+                .map_or(since.elapsed(), |c| c.elapsed().min(since.elapsed()))
+                .as_secs_f64()
+        };
+        if asked.is_none() && !session.is_open() && waited_s(wall) > timeout_s {
             let error = match (session.device_problem(), session.off_track_m()) {
                 (Some(what), _) => SessionError::WrongDevice(req.device.label(), what),
                 (None, Some(off_m)) => SessionError::OffTrack { off_m, timeout_s },
@@ -257,7 +353,23 @@ pub fn run_device<R: Responder>(
             session.feed(Feed::StopDevice)?;
             return Err(error);
         }
-        if session.lost_for_s().is_some_and(|s| s > timeout_s) {
+        if let (Some(off_m), Some(since)) = (session.off_track_m(), confirmed)
+            && session.is_open()
+            && since.elapsed().as_secs_f64() > timeout_s
+        {
+            session.feed(Feed::StopDevice)?;
+            return Err(SessionError::NotBackOnTrack {
+                off_m,
+                timeout_s,
+                completed: session.completed(),
+            });
+        }
+        let lost_s = session
+            .lost_for_s()
+            .map(|s| confirmed.map_or(s, |c| s.min(c.elapsed().as_secs_f64())));
+        // Before the session starts, the wait above is the one that ends
+        // the run (its error says why the session could not start).
+        if asked.is_none() && session.is_open() && lost_s.is_some_and(|s| s > timeout_s) {
             session.feed(Feed::StopDevice)?;
             return Err(SessionError::Lost {
                 timeout_s,
@@ -378,23 +490,28 @@ pub fn simulate_participants(
 mod tests {
     use crate::kinds::Registry;
     use crate::results::{ResultsDir, read_log};
-    use crate::session::{DeviceChoice, SessionRequest, run_device, sim_participant};
+    use crate::session::{
+        Ask, DeviceChoice, DeviceFailure, Feed, LiveSession, NobodyToAsk, SessionError,
+        SessionRequest, SessionState, run_device, run_device_asking, sim_participant,
+    };
 
-    /// A session of magnitude-quick on the test-only device
+    /// magnitude-quick on the test-only device `loopback:<target>`
     /// (`src/device/loopback/`, reached by its `--device` spelling only),
-    /// with the simulated participant: every trial completes, its stream
-    /// written.
-    #[test]
-    fn a_backend_registered_in_one_line_runs_a_whole_session() {
+    /// into `dir`: `f` gets the folder and the request.
+    fn on_loopback<T>(
+        target: &str,
+        dir: &std::path::Path,
+        f: impl FnOnce(&ResultsDir, &SessionRequest<'_>) -> T,
+    ) -> T {
         let bytes = std::fs::read(
             std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("protocols/magnitude-quick.json"),
         )
         .unwrap();
         let protocol =
             crate::protocol::load::parse::<Registry>(std::str::from_utf8(&bytes).unwrap()).unwrap();
-        let tmp = tempfile::tempdir().unwrap();
-        let dir = ResultsDir::new(tmp.path());
-        let device = DeviceChoice::Device(crate::device::Address::parse("loopback:test").unwrap());
+        let device = DeviceChoice::Device(
+            crate::device::Address::parse(&format!("loopback:{target}")).unwrap(),
+        );
         let req = SessionRequest {
             protocol: &protocol,
             protocol_bytes: &bytes,
@@ -408,11 +525,29 @@ mod tests {
             population: None,
             lsl: None,
         };
-        let outcome = run_device(&dir, &req, 5.0, sim_participant, None, &mut |_, _| {}).unwrap();
-        let log = tmp
-            .path()
-            .join("logs/study-magnitudequick_subject-loop_session-1_log.jsonl");
-        let read = read_log::<Registry>(&log).unwrap();
+        f(&ResultsDir::new(dir), &req)
+    }
+
+    const LOG: &str = "logs/study-magnitudequick_subject-loop_session-1_log.jsonl";
+
+    fn log_of(dir: &std::path::Path) -> crate::kinds::ReadLog {
+        read_log::<Registry>(&dir.join(LOG)).unwrap()
+    }
+
+    fn log_text(dir: &std::path::Path) -> String {
+        std::fs::read_to_string(dir.join(LOG)).unwrap()
+    }
+
+    /// A session of magnitude-quick on the test-only device, with the
+    /// simulated participant: every trial completes, its stream written.
+    #[test]
+    fn a_backend_registered_in_one_line_runs_a_whole_session() {
+        let tmp = tempfile::tempdir().unwrap();
+        let outcome = on_loopback("test", tmp.path(), |dir, req| {
+            run_device(dir, req, 5.0, sim_participant, None, &mut |_, _| {})
+        })
+        .unwrap();
+        let read = log_of(tmp.path());
         assert!(read.ended, "{outcome:?}");
         assert_eq!(read.header.device, "loopback:test");
         assert_eq!(read.trials.len(), read.header.planned_trials);
@@ -420,5 +555,116 @@ mod tests {
             .unwrap()
             .count();
         assert_eq!(streams, read.trials.len());
+    }
+
+    /// Issue 63: a haptic loop whose thread panics ends the run as a
+    /// device failure (exit 3 on the command line), saying why; the log
+    /// is left for a resume, its reason noted.
+    #[test]
+    fn a_haptic_loop_that_dies_ends_the_run_as_a_device_failure() {
+        let tmp = tempfile::tempdir().unwrap();
+        let err = on_loopback("dies", tmp.path(), |dir, req| {
+            run_device(dir, req, 5.0, sim_participant, None, &mut |_, _| {})
+        })
+        .unwrap_err();
+        let SessionError::DeviceFailed {
+            failure: DeviceFailure::LoopDied(why),
+            ..
+        } = &err
+        else {
+            panic!("{err}");
+        };
+        assert!(
+            why.contains("panicked") && why.contains("as asked"),
+            "{why}"
+        );
+        assert!(err.to_string().contains("the haptic loop died"), "{err}");
+        let log = log_text(tmp.path());
+        assert!(!log_of(tmp.path()).ended);
+        assert!(log.contains("the run ended: the haptic loop died"), "{log}");
+    }
+
+    /// Answers yes at once.
+    struct Yes(bool);
+
+    impl Ask for Yes {
+        fn ask(&mut self, _: crate::device::haptic::Request, _: f64) -> bool {
+            self.0 = true;
+            true
+        }
+
+        fn confirmed(&mut self) -> bool {
+            std::mem::take(&mut self.0)
+        }
+    }
+
+    /// Issue 63: what a device asks goes through the seam: a tick's
+    /// request, the shell's ask, its confirmation back to the device.
+    /// Confirmed, the session goes on and completes; with no one to ask,
+    /// the run ends with the trials completed kept.
+    #[test]
+    fn a_request_of_the_device_is_put_to_the_experimenter_and_confirmed() {
+        let asking = |tmp: &std::path::Path, ask: &mut dyn Ask| {
+            on_loopback("asks", tmp, |dir, req| {
+                run_device_asking(dir, req, 5.0, sim_participant, None, &mut |_, _| {}, ask)
+            })
+        };
+        let tmp = tempfile::tempdir().unwrap();
+        let outcome = asking(tmp.path(), &mut Yes(false)).unwrap();
+        let (read, log) = (log_of(tmp.path()), log_text(tmp.path()));
+        assert!(read.ended, "{outcome:?}");
+        assert_eq!(read.completed(), read.header.planned_trials);
+        assert_eq!(log.matches("the experimenter confirmed").count(), 1);
+
+        let tmp = tempfile::tempdir().unwrap();
+        let err = asking(tmp.path(), &mut NobodyToAsk).unwrap_err();
+        assert!(
+            matches!(err, SessionError::NotConfirmed { within_s: None, .. }),
+            "{err}"
+        );
+        assert!(!log_of(tmp.path()).ended);
+    }
+
+    /// Issue 63: the rule that ends a run on a device that keeps failing is
+    /// the session's, so it holds in the window too: a device whose link
+    /// drops out 150 ms of every 600 loses every presentation, and the
+    /// session stops when one trial has been presented 3 times in a row.
+    #[test]
+    fn a_device_that_keeps_failing_ends_a_window_session_after_three_presentations() {
+        let tmp = tempfile::tempdir().unwrap();
+        let mut live = on_loopback("flaps", tmp.path(), |dir, req| {
+            LiveSession::start(dir, req).unwrap()
+        });
+        let start = std::time::Instant::now();
+        let mut continued = false;
+        while live.state() != SessionState::Aborted && start.elapsed().as_secs() < 20 {
+            live.feed(Feed::Frame(start.elapsed().as_secs_f64()))
+                .unwrap();
+            if !continued && live.view().screen.is_some() {
+                live.feed(Feed::Input(crate::protocol::engine::Input::Continue))
+                    .unwrap();
+                continued = true;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(2));
+        }
+        let failure = live.device_failure().cloned();
+        let Some(DeviceFailure::Faults {
+            trial,
+            presentations,
+            fault,
+        }) = failure
+        else {
+            panic!("{failure:?}");
+        };
+        assert_eq!((presentations, fault.as_str()), (3, "device lost"));
+        let read = log_of(tmp.path());
+        assert!(!read.ended);
+        let of_trial: Vec<_> = read.trials.iter().filter(|r| r.trial == trial).collect();
+        assert_eq!(of_trial.len(), 3, "presented no more");
+        assert!(
+            of_trial
+                .iter()
+                .all(|r| r.abort_reason.as_deref() == Some("device lost"))
+        );
     }
 }

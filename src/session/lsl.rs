@@ -470,6 +470,9 @@ impl Publishing {
                     self.mark(t, if lost { "device_lost" } else { "device_back" }, |_| {});
                 }
             }
+            Event::DeviceRequest { t, request } => self.mark(t, "device_request", |m| {
+                m.insert("request".into(), request.ask().into());
+            }),
             Event::Paused { t } => self.mark(t, "pause", |_| {}),
             Event::Resumed { t } => self.mark(t, "resume", |_| {}),
             Event::Note { t, text } => self.mark(t, "note", |m| {

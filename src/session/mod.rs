@@ -71,6 +71,24 @@
 //! waits until the device answers again. How long to wait is the shell's call
 //! ([`Session::lost_for_s`]).
 //!
+//! A device that keeps failing ends the run: when
+//! [`MAX_DEVICE_FAULTS_IN_A_ROW`] presentations in a row (the same trial,
+//! re-queued each time) are aborted for device faults, the run stops
+//! there ([`Session::device_failure`]), the completed trials kept and the
+//! log left open for a resume. So does a device whose answers are judged
+//! not its own once the session has started (a tick's `problem`), and a
+//! haptic loop whose thread died. Pauses and signals are no device faults,
+//! and a completed trial starts the count again.
+//!
+//! A device may ask the experimenter for something before it can go on
+//! (a tick's `request`: a 2DIY that lost its setup wants its handle at its
+//! calibration pose): the session passes it on once
+//! ([`Event::DeviceRequest`]), the link counts as lost meanwhile (so the
+//! trial under way was aborted), and the shell answers [`Feed::Confirm`],
+//! which reaches the device and is noted in the log. The session then goes
+//! on once the hand is back on the track, as it starts (a handle put at its
+//! calibration pose is off the track).
+//!
 //! # Pause and abort (the window)
 //! Pausing while a trial is presented aborts that trial with `requeue`
 //! (logged as aborted, "paused by the experimenter"), so it is presented
@@ -86,6 +104,7 @@
 //! input: no trial starts before the log is open, so each trial's stream
 //! holds it from its first tick (issue 63).
 
+pub mod check;
 pub mod device;
 pub mod event;
 pub mod feel;
@@ -101,12 +120,13 @@ pub mod view;
 use std::collections::VecDeque;
 use std::path::PathBuf;
 
+pub use check::{CheckDone, DeviceCheck};
 pub use device::{DeviceStatus, HAND_EVERY_S, percentile};
 pub use event::{Event, Feed};
 pub use feel::Feel;
 pub use headless::{
-    SessionOutcome, Simulation, participant_seed, run_device, run_planned, run_simulated, sim_id,
-    sim_participant, simulate_in_memory, simulate_participants,
+    Ask, NobodyToAsk, SessionOutcome, Simulation, participant_seed, run_device, run_device_asking,
+    run_planned, run_simulated, sim_id, sim_participant, simulate_in_memory, simulate_participants,
 };
 use open::Log;
 pub use open::{DeviceChoice, OpenLog, PlannedSession, SessionRequest, plan};
@@ -140,6 +160,46 @@ pub const INTERRUPTED: &str = "interrupted";
 
 /// Longest session-time step one frame may take with the simulated device, s.
 pub const MAX_FRAME_STEP_S: f64 = 0.5;
+
+/// Presentations in a row aborted for device faults that end the run
+/// ([`DeviceFailure::Faults`]): 3. A fault of its own kind (a replug, a
+/// board that lost its setup, a link lost for a moment) costs the trial
+/// under way one presentation, and a second in a row is still an
+/// accident; a third means the device does not hold a trial, and every
+/// further presentation would add one more aborted row and stream and
+/// nothing else. The session stops instead (exit 3) and is resumed once
+/// the device is seen to.
+pub const MAX_DEVICE_FAULTS_IN_A_ROW: u32 = 3;
+
+/// The abort reason of a trial under way when the run ends for a device
+/// failure.
+pub const DEVICE_FAILED: &str = "device failed";
+
+/// Why a session's device could not go on: its run ended (the completed
+/// trials kept, the log open for a resume).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DeviceFailure {
+    /// The same trial was presented `presentations` times in a row and
+    /// aborted for a device fault each time.
+    #[error(
+        "trial {trial} was presented {presentations} times in a row and aborted for a device fault each time (the last: {fault}); the session stops rather than present it again"
+    )]
+    Faults {
+        /// The trial (0-based).
+        trial: usize,
+        /// How many times in a row.
+        presentations: u32,
+        /// The last fault.
+        fault: String,
+    },
+    /// The device's answers were judged not its own after the session had
+    /// started.
+    #[error("{0}")]
+    NotTheDevice(&'static str),
+    /// The haptic loop's thread ended without being told to.
+    #[error("the haptic loop died ({0})")]
+    LoopDied(String),
+}
 
 /// A session on a device with more than one axis starts once the hand is
 /// within this of the track, m (it stays there: the stream shows it).
@@ -214,9 +274,50 @@ pub enum SessionError {
     /// at its JSON path); nothing written (issue 63).
     #[error("{}", .0.iter().map(ToString::to_string).collect::<Vec<_>>().join("; "))]
     BeyondTravel(Vec<crate::problem::Problem>),
+    /// After the experimenter confirmed a request, the hand stayed off the
+    /// track. Completed trials are in the log.
+    #[error(
+        "the hand stayed {:.1} mm off the track for {timeout_s} s after the device was set up again (the session goes on with it within {:.0} mm); {completed} trials completed are in the log",
+        off_m * 1e3,
+        ON_TRACK_M * 1e3
+    )]
+    NotBackOnTrack {
+        /// How far off it was last, m.
+        off_m: f64,
+        /// The timeout, s.
+        timeout_s: f64,
+        /// Trials completed.
+        completed: usize,
+    },
     /// The haptic loop could not start.
     #[error("cannot start the haptic loop: {0}")]
     Loop(std::io::Error),
+    /// The device could not go on ([`Session::device_failure`]). Completed
+    /// trials are in the log.
+    #[error("{failure} ({completed} trials completed are in the log)")]
+    DeviceFailed {
+        /// What failed.
+        failure: DeviceFailure,
+        /// Trials completed.
+        completed: usize,
+    },
+    /// The device asked the experimenter for something
+    /// ([`Event::DeviceRequest`]) and nobody confirmed it: no one to ask
+    /// (`within_s` None), or not within `within_s`. Completed trials are
+    /// in the log.
+    #[error(
+        "{}; {}; {completed} trials completed are in the log",
+        request.ask(),
+        within_s.map_or_else(|| "there is no one to confirm it here".to_owned(), |s| format!("not confirmed within {s} s"))
+    )]
+    NotConfirmed {
+        /// What the device asked.
+        request: crate::device::haptic::Request,
+        /// How long it waited, s (None: no one could be asked).
+        within_s: Option<f64>,
+        /// Trials completed.
+        completed: usize,
+    },
     /// The session could not be published on the Lab Streaming Layer.
     #[error("{0}")]
     Lsl(String),
@@ -304,6 +405,32 @@ pub struct Session<R: Responder> {
     catching_up: bool,
     /// The plan's loop rate (its fastest model's), Hz.
     loop_rate_hz: f64,
+    /// The device fault behind the abort queued for the trial under way.
+    fault_queued: Option<String>,
+    /// Presentations in a row aborted for device faults.
+    faults_in_a_row: u32,
+    /// A device failure found while fed, to end the run with once the feed
+    /// is handled; and the one that ended it.
+    failing: Option<DeviceFailure>,
+    failure: Option<DeviceFailure>,
+    /// What the device asks of the experimenter, and whether the hand is
+    /// to come back on the track after a confirmation.
+    request: Asked,
+}
+
+/// Where the device's request stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Asked {
+    /// It asks nothing.
+    Nothing,
+    /// It asks this ([`Event::DeviceRequest`] went out).
+    Asks(crate::device::haptic::Request),
+    /// The experimenter confirmed; ticks the loop sent before it heard so
+    /// still ask, until one that does not.
+    Confirmed,
+    /// The device no longer asks: the session goes on once the hand is
+    /// back on the track, as it starts.
+    BackOnTrack,
 }
 
 /// The log's last lines, once the shell has added its own.
@@ -496,6 +623,11 @@ impl<R: Responder> Session<R> {
             annotate: None,
             catching_up: false,
             loop_rate_hz: rate_hz,
+            fault_queued: None,
+            faults_in_a_row: 0,
+            failing: None,
+            failure: None,
+            request: Asked::Nothing,
         })
     }
 
@@ -573,6 +705,23 @@ impl<R: Responder> Session<R> {
         &self.device_label
     }
 
+    /// Why the device could not go on, once the run has ended for it
+    /// (module docs: a device that keeps failing).
+    #[must_use]
+    pub fn device_failure(&self) -> Option<&DeviceFailure> {
+        self.failure.as_ref()
+    }
+
+    /// What the device asks of the experimenter, until confirmed
+    /// ([`Feed::Confirm`]).
+    #[must_use]
+    pub fn device_request(&self) -> Option<crate::device::haptic::Request> {
+        match self.request {
+            Asked::Asks(request) => Some(request),
+            Asked::Nothing | Asked::Confirmed | Asked::BackOnTrack => None,
+        }
+    }
+
     /// Whether the device is the simulated one.
     #[must_use]
     pub fn is_sim(&self) -> bool {
@@ -616,7 +765,7 @@ impl<R: Responder> Session<R> {
             // A shell that did not close: the log's last lines as they are.
             self.close(&[])?;
         }
-        match feed {
+        let handled = match feed {
             Feed::Tick => self.step(),
             Feed::Poll => self.poll_device(),
             Feed::Frame(wall_s) => self.advance(wall_s),
@@ -648,7 +797,45 @@ impl<R: Responder> Session<R> {
                 Ok(())
             }
             Feed::Close(lines) => self.close(&lines),
+            Feed::Confirm => self.confirm(),
+        };
+        handled?;
+        match self.failing.take() {
+            Some(failure) => self.fail(&failure),
+            None => Ok(()),
         }
+    }
+
+    /// The device failed: the run ends (the one rule for every device and
+    /// shell), its reason noted in the log.
+    fn fail(&mut self, failure: &DeviceFailure) -> Result<(), ResultsError> {
+        if self.failure.is_some()
+            || !matches!(self.state, SessionState::Running | SessionState::Paused)
+        {
+            return Ok(());
+        }
+        self.failure = Some(failure.clone());
+        if self.log.opened().is_some() {
+            self.note(format!("the run ended: {failure}"))?;
+        }
+        self.stop_run(DEVICE_FAILED, None)
+    }
+
+    /// The experimenter did what the device asked: it is told, and the log
+    /// notes it.
+    fn confirm(&mut self) -> Result<(), ResultsError> {
+        let Asked::Asks(request) = self.request else {
+            return Ok(());
+        };
+        self.request = Asked::Confirmed;
+        if let Device::Port(port) = &mut self.device {
+            port.confirm();
+        }
+        self.on_track_since = None;
+        self.note(format!(
+            "the device asked ({}); the experimenter confirmed",
+            request.ask()
+        ))
     }
 
     /// Writes `lines` and then the log's last line, if the run has ended
@@ -726,12 +913,26 @@ impl<R: Responder> Session<R> {
             self.t = self.t.max(at);
             if matches!(self.log, Log::Unopened { .. }) {
                 self.device_problem = tick.problem;
+            } else if let Some(problem) = tick.problem {
+                // Its answers are judged not its own: the run ends.
+                self.failing = Some(DeviceFailure::NotTheDevice(problem));
+                return Ok(());
+            }
+            match (tick.request, self.request) {
+                (Some(request), Asked::Nothing | Asked::BackOnTrack) => {
+                    self.request = Asked::Asks(request);
+                    let t = self.t;
+                    self.emit(|| Event::DeviceRequest { t, request });
+                }
+                (None, Asked::Confirmed) => self.request = Asked::BackOnTrack,
+                (None, Asked::Asks(_)) => self.request = Asked::Nothing,
+                _ => {}
             }
             if tick.link != LinkState::Connected {
                 // The abort takes effect now: ticks read after this one
                 // (the device back, started afresh) are no part of the
                 // trial.
-                self.lost();
+                self.lost(tick.problem, tick.request);
                 self.settle()?;
                 continue;
             }
@@ -739,19 +940,20 @@ impl<R: Responder> Session<R> {
                 let t = self.t;
                 self.emit(|| Event::DeviceBack { t });
             }
+            if self.request == Asked::BackOnTrack && self.on_track(&tick) {
+                self.request = Asked::Nothing;
+            }
             if matches!(self.log, Log::Unopened { .. }) {
                 // A session starts with the hand on the track, held
-                // there for ON_TRACK_HOLD_S (not passing through it).
-                if tick.off_track_m > ON_TRACK_M {
-                    self.off_track_m = Some(tick.off_track_m);
+                // there for ON_TRACK_HOLD_S (not passing through it), on
+                // a device with no problem.
+                if tick.problem.is_some() {
                     self.on_track_since = None;
                     continue;
                 }
-                let since = *self.on_track_since.get_or_insert(self.t);
-                if self.device.axes() > 1 && (self.t - since).secs() < ON_TRACK_HOLD_S {
+                if !self.on_track(&tick) {
                     continue;
                 }
-                self.off_track_m = None;
                 match self.gate {
                     Gate::Waiting => {
                         // Its shell gets ready first (its streams open,
@@ -801,6 +1003,12 @@ impl<R: Responder> Session<R> {
         // Every tick the loop has reported is read: a trial waiting for
         // the present (after a record's write) may start.
         self.catching_up = false;
+        if let Device::Port(port) = &mut self.device
+            && let Some(why) = port.died()
+        {
+            self.failing = Some(DeviceFailure::LoopDied(why));
+            return Ok(());
+        }
         self.settle()
     }
 
@@ -863,8 +1071,27 @@ impl<R: Responder> Session<R> {
         }
     }
 
-    /// The one lost-device rule (module docs).
-    fn lost(&mut self) {
+    /// Whether the hand is on the track and has been for
+    /// [`ON_TRACK_HOLD_S`] (on a device with more than one axis), by
+    /// `tick`; how far off it is, if too far.
+    fn on_track(&mut self, tick: &crate::device::haptic::Tick) -> bool {
+        if tick.off_track_m > ON_TRACK_M {
+            self.off_track_m = Some(tick.off_track_m);
+            self.on_track_since = None;
+            return false;
+        }
+        let since = *self.on_track_since.get_or_insert(self.t);
+        if self.device.axes() > 1 && (self.t - since).secs() < ON_TRACK_HOLD_S {
+            return false;
+        }
+        self.off_track_m = None;
+        self.on_track_since = None;
+        true
+    }
+
+    /// The one lost-device rule (module docs); `problem` and `request`
+    /// are what the device said of itself, for the fault's description.
+    fn lost(&mut self, problem: Option<&str>, request: Option<crate::device::haptic::Request>) {
         if self.lost_since.is_none() && matches!(self.log, Log::Open(_)) {
             // Lost after it had answered (not still connecting).
             let t = self.t;
@@ -873,6 +1100,35 @@ impl<R: Responder> Session<R> {
         self.lost_since.get_or_insert(self.t);
         if self.engine.in_trial() {
             self.interrupt_trial("device lost");
+            if self.fault_queued.is_none() {
+                self.fault_queued = Some(match (request, problem) {
+                    (Some(r), _) => format!("device lost: {}", r.ask()),
+                    (None, Some(p)) => format!("device lost: {p}"),
+                    (None, None) => "device lost".to_owned(),
+                });
+            }
+        }
+    }
+
+    /// Counts a record toward [`MAX_DEVICE_FAULTS_IN_A_ROW`]: an abort for
+    /// a device fault adds one, any other record starts again. At the
+    /// bound the run is held (no next presentation) and ends once the
+    /// feed is handled.
+    fn count_fault(&mut self, record: &LoggedTrial) {
+        let fault = self.fault_queued.take();
+        match fault {
+            Some(fault) if record.status != crate::protocol::engine::Status::Completed => {
+                self.faults_in_a_row += 1;
+                if self.faults_in_a_row >= MAX_DEVICE_FAULTS_IN_A_ROW {
+                    self.failing = Some(DeviceFailure::Faults {
+                        trial: record.trial,
+                        presentations: self.faults_in_a_row,
+                        fault,
+                    });
+                    self.state = SessionState::Paused;
+                }
+            }
+            _ => self.faults_in_a_row = 0,
         }
     }
     /// Queues an abort (re-queued) of the trial under way, ahead of every
@@ -940,12 +1196,12 @@ impl<R: Responder> Session<R> {
             let Some(front) = self.pending.front() else {
                 return Ok(());
             };
-            // Nothing flows before the session has started (its log open):
-            // on a port the log opens once the hand is held on the track,
-            // and a trial started before then would have its start (its
-            // select, its first ticks) missing from its stream.
+            // On a port nothing flows before the session has started (its
+            // log open: the device answers, the hand on the track), so no
+            // trial is presented, and no record written, before then.
             let flows = self.state == SessionState::Running
                 && self.device.connected()
+                && !matches!(self.request, Asked::Confirmed | Asked::BackOnTrack)
                 && !matches!(self.log, Log::Unopened { .. });
             let next = match front {
                 Pending::Input(Input::Abort { .. }) => self.pending.pop_front(),
@@ -1000,6 +1256,7 @@ impl<R: Responder> Session<R> {
                     annotate(&mut record);
                 }
                 self.log.write_record(&record)?;
+                self.count_fault(&record);
                 // The next trial starts after this one's record.
                 self.trial_seen = None;
                 if self.events.is_some() {

@@ -176,7 +176,8 @@ pub fn plan(
     let participant_index = req
         .participant_index
         .unwrap_or_else(|| dir.other_participants(id, req.participant));
-    let (header, source) = new_session(req, session, participant_index, responder);
+    let (mut header, source) = new_session(req, session, participant_index, responder);
+    header.device_check = crate::results::device_checks::last(dir, &req.device.label());
     Ok(PlannedSession {
         source,
         opening: Opening::New {
@@ -211,6 +212,7 @@ pub fn new_session(
         device: req.device.label(),
         device_settings: None,
         device_limits: None,
+        device_check: None,
         responder: responder.into(),
         planned_trials: source.planned().unwrap_or(0),
         population: req.population.cloned(),

@@ -164,8 +164,9 @@ impl<R: Responder> Session<R> {
         !matches!(self.log, Log::Unopened { .. })
     }
 
-    /// While the session waits to start on a device with more than one
-    /// axis: how far off the track the hand is, m, if too far to start.
+    /// While the session waits to start (or to go on after the device was
+    /// set up again) on a device with more than one axis: how far off the
+    /// track the hand is, m, if too far.
     #[must_use]
     pub fn off_track_m(&self) -> Option<f64> {
         self.off_track_m

@@ -13,6 +13,20 @@ use frictionlab::settings;
 
 pub mod window;
 
+/// `TTYPort::pair` is not thread-safe (it reads the new pseudo-terminal's
+/// name from a static buffer: two at once can get each other's): the tests
+/// of a binary that make pairs take turns here. (Issue 63: a 2DIY test's
+/// session once read another test's noise.)
+pub static PTY: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// A new pseudo-terminal pair (master, slave), made in turn ([`PTY`]).
+pub fn pty_pair() -> (serialport::TTYPort, serialport::TTYPort) {
+    let _turn = PTY
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    serialport::TTYPort::pair().unwrap()
+}
+
 /// Default parameters of `model` with `overrides` applied.
 pub fn model(name: &str, overrides: &[(&str, &str)]) -> ModelParams {
     let base = ModelParams::default_for(name).expect("known model");
@@ -113,19 +127,36 @@ pub fn emulator(path: &std::path::Path) -> std::process::Child {
 
 /// [`emulator`] with more options (`--on-board`).
 pub fn emulator_with(path: &std::path::Path, options: &[&str]) -> std::process::Child {
+    emulator_until(path.to_str().unwrap(), options, || {
+        std::fs::read_link(path).is_ok()
+    })
+}
+
+/// Starts `frictionlab device-emulator TARGET OPTIONS` (any kind) and waits
+/// until `ready` (at most 10 s).
+pub fn emulator_until(
+    target: &str,
+    options: &[&str],
+    ready: impl Fn() -> bool,
+) -> std::process::Child {
     let child = std::process::Command::new(env!("CARGO_BIN_EXE_frictionlab"))
-        .args(["device-emulator", path.to_str().unwrap()])
+        .args(["device-emulator", target])
         .args(options)
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
         .spawn()
         .unwrap();
     let start = std::time::Instant::now();
-    while std::fs::read_link(path).is_err() && start.elapsed() < std::time::Duration::from_secs(10)
-    {
+    while !ready() && start.elapsed() < std::time::Duration::from_secs(10) {
         std::thread::sleep(std::time::Duration::from_millis(10));
     }
     child
+}
+
+/// Stops a child process started by a test.
+pub fn stop(mut child: std::process::Child) {
+    let _ = child.kill();
+    let _ = child.wait();
 }
 
 /// The completed trials of a session log, in plan order.

@@ -27,6 +27,7 @@ use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
 use super::wire::{Decoder, MAX_FRAME, Message, encode, status};
+use crate::device::miswiring::Miswiring;
 use crate::device::sim::Apparatus;
 use crate::friction::ForceLimit;
 use frictionlab_core::onboard::{self, Firmware};
@@ -70,6 +71,9 @@ pub struct EmulatorCore {
     /// Replies beyond the first to a message (`OnBoard` after
     /// `Capabilities`) and loop reports, sent with the next tick.
     outbox: Vec<Message>,
+    /// How the board is wired wrong, if it is (tests of the bring-up
+    /// check).
+    miswiring: Miswiring,
 }
 
 impl Default for EmulatorCore {
@@ -95,7 +99,16 @@ impl EmulatorCore {
             firmware: None,
             v2: false,
             outbox: Vec::new(),
+            miswiring: Miswiring::default(),
         }
+    }
+
+    /// This firmware on a board wired wrong as `miswiring` says: its
+    /// encoder's count and its motor's force, on board too.
+    #[must_use]
+    pub fn miswired(mut self, miswiring: Miswiring) -> Self {
+        self.miswiring = miswiring;
+        self
     }
 
     /// Firmware that also renders models on board (wire protocol v2), in
@@ -210,7 +223,11 @@ impl EmulatorCore {
         let watchdog = self
             .last_command_s
             .is_none_or(|t| self.now_s - t > WATCHDOG_S);
-        let force = if watchdog { 0.0 } else { self.force_n };
+        let force = if watchdog {
+            0.0
+        } else {
+            self.miswiring.motor(self.force_n)
+        };
         let mut button = false;
         let sample = self.rig.step(dt, |sensed| {
             button = sensed.button;
@@ -238,7 +255,7 @@ impl EmulatorCore {
         Some(Message::Sample {
             ack_seq: self.ack_seq,
             time_us: ((self.now_s * 1e6) as u64 & 0xffff_ffff) as u32,
-            position_counts: (sample.x_m / self.p.encoder_m).round() as i32,
+            position_counts: (self.miswiring.encoder(sample.x_m) / self.p.encoder_m).round() as i32,
             button,
             status: flags,
         })
@@ -252,14 +269,22 @@ impl EmulatorCore {
         self.now_s += dt;
         let mut telemetry = None;
         let outbox = &mut self.outbox;
+        let miswiring = self.miswiring;
         let sample = self.rig.step(dt, |sensed| {
+            let sensed = frictionlab_core::plant::Sensed {
+                input: crate::friction::Input {
+                    x_m: miswiring.encoder(sensed.input.x_m),
+                    v_m_s: miswiring.encoder(sensed.input.v_m_s),
+                },
+                ..sensed
+            };
             let input = sensed.input_f32();
             let (force_n, _) =
                 firmware.tick(input, sensed.button, sensed.end_stop, |m| match telemetry {
                     None => telemetry = Some(m),
                     Some(_) => outbox.push(m),
                 });
-            f64::from(force_n)
+            miswiring.motor(f64::from(force_n))
         });
         self.force_n = sample.force_n;
         if !firmware.has_host() {

@@ -41,6 +41,7 @@ pub const KIND: super::Kind = super::Kind {
     target: "PATH",
     bare: true,
     check,
+    check_settings: |_| Ok(()),
     open,
     find,
 };

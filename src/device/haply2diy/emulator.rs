@@ -13,8 +13,14 @@
 //! held by the hand's own impedance. The motors' torques act through the
 //! pantograph's Jacobian at the true pose; the encoders count whole steps
 //! from the pose at setup, as the board's do. It powers up at the vendor's
-//! calibration pose, and is put back there at each reset, as a 2DIY is
-//! before a host sets it up.
+//! calibration pose (where the experimenter puts the handle before a
+//! session); a reset forgets the setup and leaves the handle where it is,
+//! as a real board's does.
+//!
+//! Faults for tests, when asked ([`Faults`]): the board loses its setup
+//! mid-session (as a board that browned out and restarted: it answers with
+//! its id alone), or its port goes away for [`REPLUG_GAP_S`] and comes back
+//! with the board still set up (a USB replug the board rode out).
 //!
 //! Free constants of the emulated hand and linkage (not from a source; no
 //! result depends on their exact values, the tests ask only that the loop
@@ -27,12 +33,15 @@
 //!   there.
 
 use std::io::{Read, Write};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use super::pantograph::{self, Links, Pose};
 use super::protocol::{PORTS, Wiring};
 use super::{Config, MAX_TORQUE_N_M};
 use crate::device::hand_link;
+use crate::device::miswiring::Miswiring;
 use crate::device::pty::is_busy;
 use crate::device::track::Track;
 use frictionlab_core::plant::{Apparatus, Rig};
@@ -49,8 +58,15 @@ pub const HAND_ACROSS_DAMPING_N_S_M: f64 = 5.0;
 pub const HAND_ACROSS_REST_M: f64 = 0.003;
 /// The hand's mass, kg (as the simulated participant's on our own device).
 pub const HAND_MASS_KG: f64 = 0.4;
-/// How far along the track the linkage moves before it meets its stops, m.
-pub const TRACK_RANGE_M: f64 = 0.08;
+/// How far along the track the linkage moves before it meets its stops, m:
+/// the travel the driver states for `config` ([`Config::reach`]), so that a
+/// bring-up check of the emulator measures what the driver states (issue
+/// 63; a real 2DIY has no stops there: the lab marks the ends).
+#[must_use]
+pub fn track_range_m(config: &Config) -> f64 {
+    let ([lo, hi], _) = config.reach();
+    2.0 * hi.min(-lo).max(0.0)
+}
 
 /// Physics step of the emulator, s.
 pub const STEP_S: f64 = 0.0005;
@@ -87,6 +103,9 @@ pub struct BoardCore {
     across: (f64, f64),
     /// The last pose inside the workspace.
     angles: [f64; 2],
+    /// The encoders count this many times the steps per turn the host
+    /// sets up ([`Miswiring::encoder_scale`]; 1: right).
+    encoder_scale: f64,
 }
 
 impl BoardCore {
@@ -99,7 +118,7 @@ impl BoardCore {
             mass_kg: LINKAGE_MASS_KG,
             static_friction_n: LINKAGE_FRICTION_N,
             max_force_n: 1e3,
-            range_m: TRACK_RANGE_M,
+            range_m: track_range_m(config),
             encoder_m: 1e-9,
             ..Apparatus::default()
         };
@@ -113,14 +132,31 @@ impl BoardCore {
             rig: Rig::new(apparatus, HAND_MASS_KG),
             across: (0.0, 0.0),
             angles: [0.0; 2],
+            encoder_scale: 1.0,
         };
         core.park();
         core
     }
 
-    /// Puts the linkage at its calibration pose, at rest: a 2DIY's
-    /// encoders count from where it is when it is set up, so it is put
-    /// there before a host starts (the emulator does so at each reset).
+    /// This board wired wrong as `miswiring` says: both encoders counting
+    /// the other way than the setup says (`flip_encoder`), both motors
+    /// turning the other way (`flip_motor`), the encoders counting
+    /// `encoder_scale` times the steps per turn the setup states.
+    #[must_use]
+    pub fn miswired(mut self, miswiring: &Miswiring) -> Self {
+        for e in &mut self.truth.encoders {
+            e.direction ^= u8::from(miswiring.flip_encoder);
+        }
+        for m in &mut self.truth.motors {
+            m.direction ^= u8::from(miswiring.flip_motor);
+        }
+        self.encoder_scale = miswiring.encoder_scale;
+        self
+    }
+
+    /// Puts the linkage at its calibration pose, at rest, where the
+    /// experimenter puts a 2DIY's handle before a host sets it up (its
+    /// encoders count from where it is then): where it powers up.
     pub fn park(&mut self) {
         let calibration = [
             self.truth.encoders[0].offset_deg,
@@ -206,11 +242,7 @@ impl BoardCore {
 
     fn handle(&mut self, frame: &[u8], reply: &mut Vec<u8>) {
         match frame[0] {
-            0 => {
-                self.registered = None;
-                self.torque = [0.0; 2];
-                self.park();
-            }
+            0 => self.lose_setup(),
             1 => self.setup(frame),
             2 => {
                 self.torques(frame);
@@ -226,6 +258,20 @@ impl BoardCore {
             }
             _ => {}
         }
+    }
+
+    /// Forgets the setup and stops the motors, the handle left where it
+    /// is (a reset, or a board that restarted): torque frames are answered
+    /// with the id alone until a host sets it up again.
+    pub fn lose_setup(&mut self) {
+        self.registered = None;
+        self.torque = [0.0; 2];
+    }
+
+    /// Whether a host has set the board up.
+    #[must_use]
+    pub fn is_set_up(&self) -> bool {
+        self.registered.is_some()
     }
 
     fn setup(&mut self, frame: &[u8]) {
@@ -320,7 +366,7 @@ impl BoardCore {
             .joint(port, false, direction)
             .map_or(0.0, |(j, sign)| sign * (self.angles[j] - r.at_setup[j]));
         #[expect(clippy::cast_possible_truncation, reason = "whole encoder steps")]
-        let count = count0 + (turned * resolution / 360.0).floor() as i64;
+        let count = count0 + (turned * self.encoder_scale * resolution / 360.0).floor() as i64;
         #[expect(
             clippy::cast_possible_truncation,
             clippy::cast_precision_loss,
@@ -399,19 +445,52 @@ pub enum Clock {
     Lockstep,
 }
 
-/// Runs `core` on `port` until the port fails: each frame answered at
-/// once, the physics advanced by `clock`, the hand following the newest
-/// drive on `hand`. Each frame and reply is handed to `log`.
+/// How long the port stays away in a replug ([`Faults::replug`]), s:
+/// longer than the host's lost-link time (0.1 s), so the trial under way
+/// is lost, as with a cable pulled and put back.
+pub const REPLUG_GAP_S: f64 = 0.5;
+
+/// Faults the emulated board shows when asked, for tests (the shell sets
+/// them on SIGUSR1 and SIGUSR2); each is cleared as it is shown.
+#[derive(Debug, Clone, Default)]
+pub struct Faults {
+    /// The board loses its setup (it restarted: the handle stays where it
+    /// is, torque frames are answered with the id alone); or, while it is
+    /// not set up, the handle is put at its calibration pose (as the
+    /// experimenter is asked to).
+    pub lose_setup: Arc<AtomicBool>,
+    /// The port goes away for [`REPLUG_GAP_S`] and comes back with the
+    /// board still set up.
+    pub replug: Arc<AtomicBool>,
+}
+
+/// Why [`serve`] returned without an error: a fault to show.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Served {
+    /// The board is to lose its setup ([`BoardCore::lose_setup`]), or,
+    /// not set up, its handle is to be put at its calibration pose
+    /// ([`BoardCore::park`]); then it is served again on the same port.
+    LoseSetup,
+    /// The port is to go away for [`REPLUG_GAP_S`] and be served again,
+    /// the board as it is.
+    Replug,
+}
+
+/// Runs `core` on `port` until the port fails or `faults` asks for one:
+/// each frame answered at once, the physics advanced by `clock`, the hand
+/// following the newest drive on `hand`. Each frame and reply is handed to
+/// `log`.
 ///
 /// # Errors
 /// An I/O error on the port.
 pub fn serve(
     port: &mut (impl Read + Write),
-    mut core: BoardCore,
+    core: &mut BoardCore,
     clock: Clock,
     hand: Option<&hand_link::Receiver>,
+    faults: &Faults,
     mut log: impl FnMut(bool, &[u8]),
-) -> std::io::Result<()> {
+) -> std::io::Result<Served> {
     // A device keeps its own time: at real-time priority where allowed
     // (crate::device::realtime; issue 63).
     let _ = crate::device::realtime::ask_fifo(); // granted or not, it serves
@@ -423,6 +502,12 @@ pub fn serve(
     // frame.
     let mut torque_frames = false;
     loop {
+        if faults.replug.swap(false, Ordering::Relaxed) {
+            return Ok(Served::Replug);
+        }
+        if faults.lose_setup.swap(false, Ordering::Relaxed) {
+            return Ok(Served::LoseSetup);
+        }
         let n = match port.read(&mut input) {
             Ok(n) => n,
             Err(e) if is_busy(&e) => 0,
@@ -538,6 +623,45 @@ mod tests {
         assert_eq!(applied(-0.5), -MAX_TORQUE_N_M);
         assert!((applied(0.05) - 0.05).abs() <= MAX_TORQUE_N_M / 4095.0);
         assert_eq!(applied(f64::NAN), 0.0);
+    }
+
+    /// Issue 63: a reset (or a board that lost its setup) leaves the handle
+    /// where it is, as a real board does: set up again there, the board
+    /// counts from that pose, reading its calibration angles; not set up,
+    /// it answers a torque frame with its id alone.
+    #[test]
+    fn a_reset_leaves_the_handle_where_it_is() {
+        let (mut core, w) = setup_core();
+        let calibration = core.position();
+        for _ in 0..4000 {
+            core.step(STEP_S); // the hand carries it off, towards the track
+        }
+        let moved = core.position();
+        assert!((moved[1] - calibration[1]).abs() > 0.01, "{moved:?}");
+        let mut out = Vec::new();
+        core.receive(&w.reset(), &mut out, &mut |_, _| {});
+        assert_eq!(core.position(), moved, "the reset moved nothing");
+        core.receive(&w.torques([0.0; 2]), &mut out, &mut |_, _| {});
+        assert_eq!(out, [5], "not set up: the id alone");
+        core.receive(&w.setup(), &mut out, &mut |_, _| {});
+        out.clear();
+        core.receive(&w.torques([0.0; 2]), &mut out, &mut |_, _| {});
+        let read = w.angles(&out.clone().try_into().unwrap());
+        let (mut first, _) = setup_core();
+        let mut at_calibration = Vec::new();
+        first.receive(&w.torques([0.0; 2]), &mut at_calibration, &mut |_, _| {});
+        assert_eq!(
+            read,
+            w.angles(&at_calibration.try_into().unwrap()),
+            "counted from where the handle was at setup, as if it were the calibration pose"
+        );
+        core.lose_setup();
+        out.clear();
+        core.receive(&w.torques([0.0; 2]), &mut out, &mut |_, _| {});
+        assert_eq!(
+            (out.as_slice(), core.position()),
+            ([5_u8].as_slice(), moved)
+        );
     }
 
     /// With no torque, the hand carries the end effector from the

@@ -3,13 +3,42 @@
 //! the vendor's ([`pantograph`]); [`emulator`] is a board we ship for tests
 //! and for trying without hardware.
 //!
-//! [`Haply2Diy`] is the backend: it resets and sets the board up when the port
-//! opens (and again when it reopens), sends one torque frame per loop tick
-//! and reads the angles each one is answered with. Forces become torques
-//! through the Jacobian at the last angles read (`τ = Jᵀ f`), scaled down
-//! as a whole when either is beyond the firmware's limit
-//! ([`MAX_TORQUE_N_M`]), so no torque the board would clamp is ever sent;
-//! until angles have come back, the torques are zero.
+//! [`Haply2Diy`] is the backend: it resets and sets the board up when the
+//! port first opens, sends one torque frame per loop tick and reads the
+//! angles each one is answered with. Forces become torques through the
+//! Jacobian at the last angles read (`τ = Jᵀ f`), scaled down as a whole
+//! when either is beyond the firmware's limit ([`MAX_TORQUE_N_M`]), so no
+//! torque the board would clamp is ever sent; until angles have come back,
+//! the torques are zero.
+//!
+//! # The board's setup
+//! The board counts its encoders from where the handle is when it is set
+//! up, so the driver sets it up only where the pose it counts from is
+//! known:
+//! - at first contact (no angles read yet), at once: the experimenter put
+//!   the handle at its calibration pose before starting, as with the
+//!   vendor's software (docs/guide/devices.md). A board that answers with
+//!   its id alone there did not take the setup (it was still starting): it
+//!   is set up again every [`SETUP_RETRY_S`], and after [`SETUP_TRIES`]
+//!   the port is reported as a 2DIY that does not take its setup;
+//! - after the port reopens (a hiccup, a replug), not at all: a board that
+//!   kept its setup answers with angles and goes on from its count;
+//! - a board that answers with its id alone once angles have been read
+//!   ([`BARE_ANSWERS`] in a row: it lost its setup, powered down or reset)
+//!   is asked for ([`Request::CalibrationPose`]): its link is lost, and it
+//!   is set up again only when the experimenter confirms the handle is at
+//!   its calibration pose ([`Backend::confirm`]).
+//!
+//! # Which answers are a 2DIY's
+//! A reply is taken only where the board can have sent it
+//! ([`Haply2Diy::plausible`]): each joint within half a turn of its
+//! calibration angle with the linkage closed (a pose it reaches), and each
+//! joint no further from the last reply
+//! taken than [`MAX_JOINT_RATE_DEG_S`] turns it in the time between the
+//! frames they answer. Whatever is not taken is dropped, and a port whose
+//! bytes are mostly dropped over a recent window
+//! ([`protocol::Replies::mostly_dropped`]) is not a 2DIY, at any time
+//! ([`Reading::problem`]).
 //!
 //! Never run on a 2DIY here: it is written from the vendor's client and
 //! firmware and tested against the vendor's client on the emulator.
@@ -18,11 +47,12 @@ pub mod emulator;
 pub mod pantograph;
 pub mod protocol;
 
+use std::collections::VecDeque;
 use std::path::Path;
 
 use self::pantograph::{Links, Pose};
-use self::protocol::{Replies, Wiring};
-use super::backend::{Backend, Capabilities, LinkState, LinkStats, Reading, Vector};
+use self::protocol::{Answer, Replies, Wiring};
+use super::backend::{Backend, Capabilities, LinkState, LinkStats, Reading, Request, Vector};
 use super::track::Track;
 use super::transport::Transport;
 use crate::hand::HandDrive;
@@ -38,9 +68,38 @@ pub const LOST_AFTER_S: f64 = 0.100;
 /// their way (the board answers each torque frame, and says nothing else).
 pub const SETTLE_S: f64 = 0.020;
 
-/// Bytes that fit no reply, with none that did, before the port is said to
-/// be another device's.
-pub const GARBAGE_BYTES: u64 = 64;
+/// Bare answers (the board's id alone) in a row that say the board is not
+/// set up: a reply's bytes are never the id nine times over, so even a few
+/// are no accident; 8 is 8 ms at 1 kHz.
+pub const BARE_ANSWERS: u32 = 8;
+
+/// At first contact, a board that answers with its id alone is set up
+/// again this often, s (a board still starting when the first setup came).
+pub const SETUP_RETRY_S: f64 = 0.5;
+
+/// ... and after this many setups without angles, the port is reported as
+/// a 2DIY that does not take its setup.
+pub const SETUP_TRIES: u32 = 3;
+
+/// The fastest a 2DIY's joint turns, degrees per second: 200 rad/s. A hand
+/// at 3 m/s (faster than people move a stylus, 1-2 m/s at their fastest)
+/// turns the joint with the least leverage in the vendor v3's workspace 35
+/// rad per metre (at (0.07, 0.14) m; 15 rad per metre at the track's
+/// centre): about 105 rad/s, doubled.
+pub const MAX_JOINT_RATE_DEG_S: f64 = 200.0 * 180.0 / std::f64::consts::PI;
+
+/// What a joint's reading may differ by beyond [`MAX_JOINT_RATE_DEG_S`],
+/// degrees: far more than an encoder count (0.074° at 4880 counts per
+/// turn) and the wire's float.
+pub const ANGLE_TOLERANCE_DEG: f64 = 1.0;
+
+/// How far a joint turns from its calibration angle at most, degrees: half
+/// a turn (a proximal link further round would pass through the base or
+/// the other link).
+pub const MAX_TURN_DEG: f64 = 180.0;
+
+/// Torque frames whose send times are kept until their answers come.
+const SENT_KEPT: usize = 64;
 
 /// The loop rate the vendor's examples run the board at, Hz.
 pub const RATE_HZ: f64 = 1000.0;
@@ -52,6 +111,7 @@ pub const KIND: super::Kind = super::Kind {
     target: "PATH",
     bare: false,
     check,
+    check_settings: |set| Config::with(set).map(|_| ()),
     open,
     find,
 };
@@ -245,8 +305,24 @@ pub struct Haply2Diy {
     angles: Option<[f64; 2]>,
     replies_read: u64,
     last_reply_s: Option<f64>,
-    /// When the board was last set up.
+    /// Replies are ignored until then (bytes in flight when the port
+    /// opened or the board was set up).
+    settle_until_s: f64,
+    /// When the board was last set up, and setup frames sent.
     setup_s: f64,
+    setups: u32,
+    /// The angles the next reply is judged against, and the time the
+    /// frame they answered was sent (the calibration angles at setup).
+    reference: Option<([f64; 2], f64)>,
+    /// When each torque frame not yet answered was sent, oldest first.
+    sent: VecDeque<f64>,
+    /// Bare answers in a row, and whether there were [`BARE_ANSWERS`]
+    /// since the last reply.
+    bare: u32,
+    not_set_up: bool,
+    /// The board lost its setup: the experimenter is asked to put the
+    /// handle at its calibration pose.
+    awaiting_pose: bool,
     link: LinkState,
     hand: super::hand_link::Sender,
     bytes: [u8; 256],
@@ -276,18 +352,69 @@ impl Haply2Diy {
             angles: None,
             replies_read: 0,
             last_reply_s: None,
-            setup_s: 0.0,
+            settle_until_s: 0.0,
+            setup_s: f64::NEG_INFINITY,
+            setups: 0,
+            reference: None,
+            sent: VecDeque::with_capacity(SENT_KEPT),
+            bare: 0,
+            not_set_up: false,
+            awaiting_pose: false,
             link: LinkState::Connecting,
             hand: super::hand_link::Sender::new(path),
             bytes: [0; 256],
         }
     }
 
-    /// What is wrong with what the port sends, while no reply has come.
+    /// What is wrong with what the port sends: mostly bytes that are no
+    /// 2DIY's (at any time), or, before any angles, the id alone after
+    /// every setup.
     fn problem(&self) -> Option<&'static str> {
-        (self.replies_read == 0 && self.replies.dropped > GARBAGE_BYTES).then_some(
-            "answers with bytes that are not a 2DIY's replies (another device on this port?)",
-        )
+        if self.replies.mostly_dropped() {
+            Some("answers with bytes that are not a 2DIY's replies (another device on this port?)")
+        } else if self.replies_read == 0 && self.not_set_up && self.setups >= SETUP_TRIES {
+            Some("answers each torque frame with its id alone: a 2DIY that does not take its setup")
+        } else {
+            None
+        }
+    }
+
+    /// Resets and sets the board up: it counts its encoders from here, and
+    /// replies are judged from its calibration angles.
+    fn set_up(&mut self, now_s: f64) {
+        self.transport.write(&self.config.wiring.reset());
+        self.transport.write(&self.config.wiring.setup());
+        self.setup_s = now_s;
+        self.setups += 1;
+        self.settle_until_s = now_s + SETTLE_S;
+        self.bare = 0;
+        self.pose = None;
+        self.last_reply_s = None;
+        self.sent.clear();
+        let e = self.config.wiring.encoders;
+        self.reference = Some(([e[0].offset_deg, e[1].offset_deg], now_s));
+    }
+
+    /// Whether the board can have sent `angles` in answer to a frame sent
+    /// after the reference's, as read at `now_s`: each joint within
+    /// [`MAX_TURN_DEG`] of its calibration angle, the linkage closed there
+    /// (a finite end effector), and each joint within
+    /// [`MAX_JOINT_RATE_DEG_S`] of the reference over the time since its
+    /// frame was sent (plus [`ANGLE_TOLERANCE_DEG`]). A reply read at `now_s` was sent before
+    /// then, and the reference's after its frame: so the time between
+    /// them is at most `now_s` less that frame's send time, however the
+    /// link and the loop were delayed.
+    #[must_use]
+    pub fn plausible(&self, angles: [f64; 2], now_s: f64) -> bool {
+        let e = self.config.wiring.encoders;
+        let reach = (0..2).all(|i| (angles[i] - e[i].offset_deg).abs() <= MAX_TURN_DEG);
+        let pose = pantograph::forward(&self.config.links, angles);
+        let closed = pose.x_m.is_finite() && pose.y_m.is_finite();
+        let moved = self.reference.is_none_or(|(before, sent_s)| {
+            let most = MAX_JOINT_RATE_DEG_S * (now_s - sent_s).max(0.0) + ANGLE_TOLERANCE_DEG;
+            (0..2).all(|i| (angles[i] - before[i]).abs() <= most)
+        });
+        reach && closed && moved
     }
 
     /// The last joint angles read, degrees (joints 1 and 2), and how many
@@ -333,15 +460,19 @@ impl Backend for Haply2Diy {
     fn read(&mut self, now_s: f64) -> Reading {
         let n = self.transport.read(&mut self.bytes);
         if self.transport.opens() != self.opens {
-            // A port (re)opened: the board may have been reset.
+            // A port (re)opened. Before any angles the board is set up (the
+            // handle is where the experimenter put it); after, it is left
+            // as it is: its answers say whether it kept its setup.
             self.opens = self.transport.opens();
-            self.transport.write(&self.config.wiring.reset());
-            self.transport.write(&self.config.wiring.setup());
-            self.setup_s = now_s;
+            self.settle_until_s = now_s + SETTLE_S;
             self.pose = None;
             self.last_reply_s = None;
+            self.sent.clear();
+            if self.replies_read == 0 {
+                self.set_up(now_s);
+            }
         }
-        if now_s - self.setup_s < SETTLE_S {
+        if now_s < self.settle_until_s {
             self.replies.clear();
             return Reading {
                 link: LinkState::Connecting,
@@ -351,21 +482,67 @@ impl Backend for Haply2Diy {
                 problem: self.problem(),
             };
         }
-        let links = &self.config.links;
-        let (pose, last, read, count) = (
-            &mut self.pose,
-            &mut self.last_reply_s,
-            &mut self.angles,
-            &mut self.replies_read,
+        let (mut replies, wiring, bytes) = (
+            std::mem::take(&mut self.replies),
+            self.config.wiring,
+            self.bytes,
         );
-        self.replies
-            .feed(&self.config.wiring, &self.bytes[..n], |angles| {
-                *pose = Some(pantograph::forward(links, angles));
-                *last = Some(now_s);
-                *read = Some(angles);
-                *count += 1;
-            });
+        replies.feed(&wiring, &bytes[..n], |answer| {
+            // The send time of the frame this answers. With none kept (more
+            // answers than frames noted: frames sent before a setup or a
+            // reopen), the reference's: a time no later than the truth, so
+            // a reply is never judged over less time than it had.
+            let sent_s = self
+                .sent
+                .front()
+                .copied()
+                .or(self.reference.map(|(_, t)| t))
+                .unwrap_or(now_s);
+            match answer {
+                Answer::Bare => {
+                    // Not set up: no torque from now on (an unset board
+                    // reads a torque frame's floats as frames of their
+                    // own, a setup among them).
+                    self.sent.pop_front();
+                    self.bare = self.bare.saturating_add(1);
+                    self.pose = None;
+                    true
+                }
+                // A board that lost its setup is set up again only on the
+                // experimenter's word: what it says until then is not
+                // counted from a known pose.
+                Answer::Angles(_) if self.awaiting_pose => {
+                    self.sent.pop_front();
+                    true
+                }
+                Answer::Angles(angles) if self.plausible(angles, now_s) => {
+                    self.sent.pop_front();
+                    self.pose = Some(pantograph::forward(&self.config.links, angles));
+                    self.reference = Some((angles, sent_s));
+                    self.last_reply_s = Some(now_s);
+                    self.angles = Some(angles);
+                    self.replies_read += 1;
+                    self.bare = 0;
+                    self.not_set_up = false;
+                    true
+                }
+                Answer::Angles(_) => false,
+            }
+        });
+        self.replies = replies;
+        if self.bare >= BARE_ANSWERS && !self.awaiting_pose {
+            self.not_set_up = true;
+            if self.replies_read == 0 {
+                if now_s - self.setup_s >= SETUP_RETRY_S {
+                    self.set_up(now_s);
+                }
+            } else {
+                self.awaiting_pose = true;
+                self.pose = None;
+            }
+        }
         self.link = match self.last_reply_s {
+            _ if self.awaiting_pose => LinkState::Lost,
             None => LinkState::Connecting,
             Some(t) if now_s - t <= LOST_AFTER_S => LinkState::Connected,
             Some(_) => LinkState::Lost,
@@ -380,13 +557,18 @@ impl Backend for Haply2Diy {
         }
     }
 
-    fn send_force(&mut self, _now_s: f64, force_n: Vector, _vibration: f64) {
+    fn send_force(&mut self, now_s: f64, force_n: Vector, _vibration: f64) {
         let tau = if self.link == LinkState::Lost {
             [0.0; 2]
         } else {
             self.torques_for(force_n)
         };
         self.transport.write(&self.config.wiring.torques(tau));
+        if self.sent.len() < SENT_KEPT {
+            // Full: the oldest are kept, so a reply is judged over at
+            // least the time since its frame was sent.
+            self.sent.push_back(now_s);
+        }
     }
 
     fn close(&mut self) {
@@ -409,6 +591,18 @@ impl Backend for Haply2Diy {
         LinkStats {
             resyncs: self.replies.dropped,
             ..LinkStats::default()
+        }
+    }
+
+    fn request(&self) -> Option<Request> {
+        self.awaiting_pose.then_some(Request::CalibrationPose)
+    }
+
+    fn confirm(&mut self, now_s: f64) {
+        if self.awaiting_pose {
+            self.awaiting_pose = false;
+            self.not_set_up = false;
+            self.set_up(now_s);
         }
     }
 }
@@ -469,6 +663,31 @@ mod tests {
             Config::with(&["wall_damping_n_s_m=-1".into()])
                 .unwrap_err()
                 .contains("at least 0")
+        );
+    }
+
+    /// Issue 63: a reply is taken only where the board can have sent it:
+    /// joints that turned no faster than a hand turns them since the frame
+    /// before, within half a turn of the calibration angles.
+    #[test]
+    fn replies_the_board_cannot_have_sent_are_not_taken() {
+        let mut b = Haply2Diy::new(Path::new("/nonexistent"), Config::vendor(3));
+        b.reference = Some(([168.0, 12.0], 0.0));
+        assert!(b.plausible([168.05, 11.98], 0.001), "an encoder count on");
+        // The track's centre is (139°, 41°) from the calibration pose:
+        // 29° is 2.5 ms at the fastest a hand turns a joint.
+        assert!(!b.plausible([139.1, 40.9], 0.001));
+        assert!(b.plausible([139.1, 40.9], 0.003));
+        assert!(!b.plausible([0.0, 0.0], 0.001), "a bare id read as angles");
+        b.reference = None;
+        assert!(b.plausible([139.1, 40.9], 0.0));
+        assert!(
+            !b.plausible([168.0 + 190.0, 12.0], 0.0),
+            "beyond half a turn"
+        );
+        assert!(
+            !b.plausible([168.0, 12.0 - 181.0], 0.0),
+            "beyond half a turn"
         );
     }
 

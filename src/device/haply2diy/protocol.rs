@@ -225,39 +225,95 @@ fn push_f32(out: &mut Vec<u8>, v: f64) {
     out.extend(f32_bytes(v));
 }
 
-/// Finds replies in what the board sent: `[id][f32][f32]`, nothing to frame
-/// them, so a reply is taken where the id byte starts it and both angles
-/// are finite and within ±3600°; otherwise one byte is dropped (counted)
-/// and the search goes on.
+/// An answer the board gave to a torque frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Answer {
+    /// A reply: the joint angles, degrees (joints 1 and 2).
+    Angles([f64; 2]),
+    /// The board's id alone: a board that is not set up (the firmware
+    /// answers a torque frame with its id, then the angle of each encoder
+    /// set up: none).
+    Bare,
+}
+
+/// Bytes in each half of the window [`Replies::mostly_dropped`] judges
+/// (about 57 replies, 57 ms at 1 kHz): the window holds the last one to two
+/// halves, so a judgement rests on at least this many bytes.
+pub const JUDGE_BYTES: u64 = 512;
+
+/// Finds answers in what the board sent: `[id][f32][f32]`, nothing to frame
+/// them. At each byte:
+/// - nine id bytes in a row are a bare answer, one byte (a real reply's
+///   angles are never four bytes of the id each: that would be a whole
+///   count at which the encoder's float is the id repeated);
+/// - the id and two finite angles within ±3600° is a reply if the caller
+///   takes it (it judges whether the board can have sent it);
+/// - otherwise one byte is dropped (counted) and the search goes on.
+///
+/// It keeps the count of bytes dropped over a recent window against the
+/// bytes it went through ([`Replies::mostly_dropped`]).
 #[derive(Debug, Clone, Default)]
 pub struct Replies {
     buffer: Vec<u8>,
     /// Bytes dropped to find a reply again.
     pub dropped: u64,
+    /// Bytes gone through and dropped: the window's current half, then
+    /// the one before.
+    window: [(u64, u64); 2],
 }
 
 impl Replies {
-    /// Forgets the bytes of a reply begun (the count of bytes dropped
-    /// stays).
+    /// Forgets the bytes of a reply begun (the counts of bytes dropped
+    /// stay).
     pub fn clear(&mut self) {
         self.buffer.clear();
     }
 
-    /// Feeds bytes; hands each whole reply's angles to `on_reply`.
-    pub fn feed(&mut self, wiring: &Wiring, bytes: &[u8], mut on_reply: impl FnMut([f64; 2])) {
+    /// Whether most of the bytes gone through over the recent window (at
+    /// least [`JUDGE_BYTES`] of them) were dropped: a 2DIY drops bytes
+    /// only where a reply was cut (a few bytes when its port opens), so a
+    /// stream that is mostly resyncs is no 2DIY's.
+    #[must_use]
+    pub fn mostly_dropped(&self) -> bool {
+        let [(read0, dropped0), (read1, dropped1)] = self.window;
+        let (read, dropped) = (read0 + read1, dropped0 + dropped1);
+        read >= JUDGE_BYTES && 2 * dropped > read
+    }
+
+    fn went_through(&mut self, bytes: u64, dropped: u64) {
+        self.dropped += dropped;
+        let current = &mut self.window[0];
+        current.0 += bytes;
+        current.1 += dropped;
+        if current.0 >= JUDGE_BYTES {
+            self.window = [(0, 0), self.window[0]];
+        }
+    }
+
+    /// Feeds bytes; hands each answer to `take`, which says whether it
+    /// takes a reply's angles (a bare answer is taken whatever it says).
+    pub fn feed(&mut self, wiring: &Wiring, bytes: &[u8], mut take: impl FnMut(Answer) -> bool) {
         self.buffer.extend_from_slice(bytes);
+        let id = wiring.device_id;
         let mut start = 0;
         while self.buffer.len() - start >= REPLY {
             let mut reply = [0_u8; REPLY];
             reply.copy_from_slice(&self.buffer[start..start + REPLY]);
+            if reply.iter().all(|&b| b == id) {
+                take(Answer::Bare);
+                self.went_through(1, 0);
+                start += 1;
+                continue;
+            }
             let angles = wiring.angles(&reply);
-            if reply[0] == wiring.device_id
+            if reply[0] == id
                 && angles.iter().all(|a| a.is_finite() && a.abs() <= 3600.0)
+                && take(Answer::Angles(angles))
             {
-                on_reply(angles);
+                self.went_through(REPLY as u64, 0);
                 start += REPLY;
             } else {
-                self.dropped += 1;
+                self.went_through(1, 1);
                 start += 1;
             }
         }
@@ -308,11 +364,65 @@ mod tests {
         bytes.extend(&reply[..4]); // half of the next
         let mut replies = Replies::default();
         let mut got = Vec::new();
-        replies.feed(&w, &bytes, |a| got.push(a));
-        assert_eq!(got, [[168.0, 12.0]]);
+        let mut take = |a| {
+            got.push(a);
+            true
+        };
+        replies.feed(&w, &bytes, &mut take);
+        replies.feed(&w, &reply[4..], &mut take);
+        assert_eq!(
+            got,
+            [Answer::Angles([168.0, 12.0]); 2],
+            "the rest of the half reply completes it"
+        );
         assert_eq!(replies.dropped, 6);
-        replies.feed(&w, &reply[4..], |a| got.push(a));
-        assert_eq!(got.len(), 2, "the rest of the half reply completes it");
+    }
+
+    /// Issue 63: a board that answers with its id alone (not set up) is
+    /// read as bare answers, never as angles; a reply the caller does not
+    /// take is dropped a byte at a time.
+    #[test]
+    fn bare_answers_are_no_angles_and_untaken_replies_are_dropped() {
+        let w = Wiring::vendor(3);
+        let mut replies = Replies::default();
+        let mut got = Vec::new();
+        replies.feed(&w, &[5; 30], |a| {
+            got.push(a);
+            true
+        });
+        assert_eq!(got, [Answer::Bare; 22], "the last 8 wait for what follows");
+        assert_eq!(replies.dropped, 0);
+        let mut reply = [5_u8; REPLY];
+        reply[1..5].copy_from_slice(&12.0_f32.to_le_bytes());
+        reply[5..9].copy_from_slice(&168.0_f32.to_le_bytes());
+        let mut replies = Replies::default();
+        let mut offered = 0;
+        replies.feed(&w, &reply, |_| {
+            offered += 1;
+            false
+        });
+        assert_eq!((offered, replies.dropped), (1, 1));
+    }
+
+    /// Over a window of at least `JUDGE_BYTES`, a stream mostly dropped is
+    /// judged so, and one of replies is not.
+    #[test]
+    fn a_stream_mostly_dropped_is_judged_over_a_recent_window() {
+        let w = Wiring::vendor(3);
+        let mut reply = [5_u8; REPLY];
+        reply[1..5].copy_from_slice(&12.0_f32.to_le_bytes());
+        reply[5..9].copy_from_slice(&168.0_f32.to_le_bytes());
+        let mut replies = Replies::default();
+        let garbage = [0x80_u8; 600];
+        replies.feed(&w, &garbage, |_| true);
+        assert!(replies.mostly_dropped(), "600 bytes dropped of 600");
+        for _ in 0..200 {
+            replies.feed(&w, &reply, |_| true);
+        }
+        assert!(!replies.mostly_dropped(), "the garbage has left the window");
+        let mut few = Replies::default();
+        few.feed(&w, &garbage[..300], |_| true);
+        assert!(!few.mostly_dropped(), "too few bytes to judge");
     }
 
     #[test]

@@ -33,6 +33,7 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
 use super::messages::{ClientMessage, DeviceFrame, ServiceFrame, State, Status, Vec3};
+use crate::device::miswiring::Miswiring;
 use crate::device::track::Track;
 use frictionlab_core::plant::{Apparatus, Rig};
 
@@ -53,8 +54,10 @@ pub const HAND_REST_ACROSS_M: f64 = 0.003;
 pub const HAND_PRESS_M: (f64, f64, f64) = (0.003, 0.002, 0.5);
 /// The hand's mass, kg (as the simulated participant's elsewhere).
 pub const HAND_MASS_KG: f64 = 0.4;
-/// How far along the track the arm moves before its stops, m.
-pub const TRACK_RANGE_M: f64 = 0.1;
+/// How far along the track the arm moves before its stops, m: twice the
+/// driver's default `workspace_radius_m`, the travel it states (issue 63:
+/// a bring-up check of the emulator measures what the driver states).
+pub const TRACK_RANGE_M: f64 = 0.2;
 /// A force command lasts this long without another, s ("applied once and
 /// forgotten": the device returns to idle).
 pub const COMMAND_LASTS_S: f64 = 0.05;
@@ -81,6 +84,9 @@ pub struct Plant {
     /// Host periods advanced in lockstep: the number of the state a frame
     /// shows ([`Options::lockstep`]).
     periods: u64,
+    /// How the arm is wired wrong along the track, if it is (tests of the
+    /// bring-up check).
+    miswiring: Miswiring,
 }
 
 impl Plant {
@@ -103,7 +109,19 @@ impl Plant {
             commanded_s: f64::NEG_INFINITY,
             t_s: 0.0,
             periods: 0,
+            miswiring: Miswiring::default(),
         }
+    }
+
+    /// This arm wired wrong along the track as `miswiring` says: the
+    /// position it reports along the track counted the other way, or
+    /// `encoder_scale` times as far, from the track's origin; the force
+    /// along the track applied the other way (as a service set up for the
+    /// other hand mirrors an axis).
+    #[must_use]
+    pub fn miswired(mut self, miswiring: Miswiring) -> Self {
+        self.miswiring = miswiring;
+        self
     }
 
     /// The track's direction, across it horizontally, and up.
@@ -145,6 +163,7 @@ impl Plant {
         };
         let axes = self.axes();
         let along: f64 = (0..3).map(|i| f[i] * axes[0][i]).sum();
+        let along = self.miswiring.motor(along);
         self.rig.step(dt, |_| along);
         let (depth, swing, hz) = HAND_PRESS_M;
         let rest = [
@@ -165,7 +184,7 @@ impl Plant {
     #[must_use]
     pub fn position(&self) -> [f64; 3] {
         let axes = self.axes();
-        let x = self.rig.x_m();
+        let x = self.miswiring.encoder(self.rig.x_m());
         let o = self.track.origin_m;
         [0, 1, 2].map(|i| {
             o[i] + x * axes[0][i] + self.across[0].0 * axes[1][i] + self.across[1].0 * axes[2][i]
@@ -272,6 +291,8 @@ pub struct Options {
     /// period. A client that echoes nothing (Haply's own, which reads one
     /// frame behind what it sends) gets one period per message.
     pub lockstep: bool,
+    /// How the arm is wired wrong, if it is ([`Plant::miswired`]).
+    pub miswiring: Miswiring,
 }
 
 impl Default for Options {
@@ -280,6 +301,7 @@ impl Default for Options {
             version: VERSION.into(),
             with_device: true,
             lockstep: false,
+            miswiring: Miswiring::default(),
         }
     }
 }
@@ -360,7 +382,7 @@ pub fn serve(listener: &TcpListener, track: Track, options: &Options) -> std::io
     // (crate::device::realtime, inherited by each client's thread; issue 63).
     let _ = crate::device::realtime::ask_fifo(); // granted or not, it serves
     let shared = Arc::new(Shared {
-        plant: Mutex::new(Plant::new(track)),
+        plant: Mutex::new(Plant::new(track).miswired(options.miswiring)),
         sessions: Mutex::new(BTreeMap::new()),
         start: Instant::now(),
         port: listener.local_addr()?.port(),

@@ -64,6 +64,7 @@ pub const KIND: super::Kind = super::Kind {
     target: "[HOST:PORT]",
     bare: false,
     check: |t| address(t).map(|_| ()),
+    check_settings: |set| Config::with(set).map(|_| ()),
     open,
     find,
 };
