@@ -141,11 +141,10 @@ fn handshake_clamping_hand_and_watchdog_over_a_pty() {
 fn an_emulator_killed_mid_session_is_found_lost_then_again_and_a_dead_link_stays_lost() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("dev");
-    let mut child = common::emulator(&path);
+    let child = common::emulator(&path);
     let mut host = Host::new(&path);
     assert!(host.wait_for(LinkState::Connected, 5.0));
-    child.kill().unwrap(); // SIGKILL, mid-stream
-    child.wait().unwrap();
+    common::unplug(child, &path); // SIGKILL, mid-stream
     let killed = host.now();
     assert!(host.wait_for(LinkState::Lost, 2.0), "lost after the kill");
     assert!(
@@ -153,14 +152,13 @@ fn an_emulator_killed_mid_session_is_found_lost_then_again_and_a_dead_link_stays
         "noticed within {} s",
         host.now() - killed
     );
-    let mut child = common::emulator(&path);
+    let child = common::emulator(&path);
     assert!(
         host.wait_for(LinkState::Connected, 5.0),
         "reconnected after restart"
     );
     assert!(host.transport.opens() >= 2, "the port was reopened");
-    child.kill().unwrap();
-    child.wait().unwrap();
+    common::unplug(child, &path);
     assert!(host.wait_for(LinkState::Lost, 2.0));
     // Nobody comes back: it stays lost.
     assert!(!host.wait_for(LinkState::Connected, 1.0));

@@ -49,15 +49,6 @@ fn run(protocol: &str, out: &Path, dev: &Path, extra: &[&str]) -> Child {
         .unwrap()
 }
 
-/// Kills the emulator and removes its link, as unplugging a USB device
-/// removes its port. (A link left behind points at a freed pseudo-terminal
-/// number, which a test running alongside may take for its own.)
-fn unplug(mut emu: Child, dev: &Path) {
-    emu.kill().unwrap();
-    emu.wait().unwrap();
-    std::fs::remove_file(dev).unwrap();
-}
-
 fn log_of(out: &Path, protocol: &str) -> std::path::PathBuf {
     out.join(format!(
         "logs/study-{}_subject-dev_session-1_log.jsonl",
@@ -118,7 +109,7 @@ fn an_emulator_killed_mid_trial_and_restarted_costs_one_requeued_trial() {
     common::lost_mid_trial(
         &path,
         session,
-        || unplug(emu, &dev),
+        || common::unplug(emu, &dev),
         || common::emulator(&dev),
     );
     let log = read_log::<Registry>(&path).unwrap();
@@ -164,7 +155,7 @@ fn a_device_that_never_comes_back_ends_the_run_with_exit_3() {
         );
         std::thread::sleep(Duration::from_millis(50));
     }
-    unplug(emu, &dev);
+    common::unplug(emu, &dev);
     let started = Instant::now();
     let o = session.wait_with_output().unwrap();
     assert_eq!(
@@ -270,7 +261,7 @@ fn a_protocol_beyond_the_boards_travel_is_refused_before_the_first_trial() {
         .arg(&dev)
         .output()
         .unwrap();
-    unplug(emu, &dev);
+    common::unplug(emu, &dev);
     let stderr = String::from_utf8_lossy(&o.stderr);
     println!("exit {:?}: {stderr}", o.status.code());
     assert_eq!(o.status.code(), Some(2), "{stderr}");
@@ -618,7 +609,7 @@ fn a_device_lost_in_the_answer_phase_costs_that_trial_headless() {
     });
     // Exploration 0-2 s, then the question waits.
     std::thread::sleep(Duration::from_millis(3500));
-    unplug(emu, &dev);
+    common::unplug(emu, &dev);
     let e = runner.join().unwrap().unwrap_err();
     assert!(matches!(e, SessionError::Lost { completed: 0, .. }), "{e}");
     assert_lost_in_answer_phase(
@@ -681,7 +672,7 @@ fn a_device_lost_in_the_answer_phase_costs_that_trial_in_the_window() {
         live.view().question == Some(Question::Magnitude)
     });
     assert_eq!(live.view().question, Some(Question::Magnitude));
-    unplug(emu, &dev);
+    common::unplug(emu, &dev);
     let lost = Instant::now();
     while live.device_status().connected && lost.elapsed().as_secs() < 5 {
         live.feed(Feed::Frame(start.elapsed().as_secs_f64()))
@@ -749,7 +740,7 @@ fn a_trial_aborted_for_a_stalled_device_records_nothing_from_after_the_stall() {
     live.feed(Feed::Frame(start.elapsed().as_secs_f64()))
         .unwrap();
     live.feed(Feed::Abort).unwrap();
-    unplug(emu, &dev);
+    common::unplug(emu, &dev);
 
     let read = read_log::<Registry>(live.log_path()).unwrap();
     let summary: Vec<_> = read
@@ -813,7 +804,7 @@ fn resends_over_a_lagging_link_restart_nothing_and_rerender_bit_exact() {
     let o = run("magnitude-quick", &out, &dev, &[])
         .wait_with_output()
         .unwrap();
-    unplug(emu, &dev);
+    common::unplug(emu, &dev);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let log = read_log::<Registry>(&log_of(&out, "magnitude-quick")).unwrap();
     assert_eq!(common::completed_trials(&log), (0..6).collect::<Vec<_>>());
@@ -908,7 +899,7 @@ fn feeling_a_condition_on_the_emulated_device_renders_it_under_the_hand() {
             std::thread::sleep(Duration::from_millis(10));
         }
         drop(feel);
-        unplug(emu, &dev);
+        common::unplug(emu, &dev);
         assert!(connected, "{name}: the device never answered");
         assert!(reached, "{name}: the hand never followed the pointer");
         peaks.push(peak);

@@ -608,7 +608,8 @@ fn a_2diy_replugged_with_its_setup_kept_is_not_set_up_again_and_the_session_ride
 }
 
 /// Issue 63: the 2DIY loses its setup mid-trial (the emulator's SIGUSR1:
-/// it answers with its id alone, the handle where it was). The run asks on
+/// it restarts, its port away for 0.5 s, and then answers with its id
+/// alone, the handle where it was). The run asks on
 /// its terminal for the handle at its calibration pose; the handle is put
 /// there (SIGUSR1 again) and Enter confirms: the board is set up again
 /// (a second setup frame), the session goes on once the hand is back on

@@ -463,7 +463,13 @@ pub(super) fn haply2diy_emulator_command(
         .map_err(|e| device_failure(&place, e.to_string()))?;
         match served {
             emulator::Served::LoseSetup if core.is_set_up() => {
+                // A restart: the port goes away as the board's USB starts
+                // again, and comes back with the board not set up.
+                port.unplug(path);
                 core.lose_setup();
+                core.replugged();
+                std::thread::sleep(std::time::Duration::from_secs_f64(emulator::REPLUG_GAP_S));
+                port = open()?;
                 emit("haply2diy emulator: the board lost its setup (SIGUSR1)\n")?;
             }
             emulator::Served::LoseSetup => {
@@ -471,9 +477,10 @@ pub(super) fn haply2diy_emulator_command(
                 emit("haply2diy emulator: the handle put at its calibration pose (SIGUSR1)\n")?;
             }
             emulator::Served::Replug => {
-                // The port goes away (its pseudo-terminal closed, the link
-                // left dangling) and comes back, the board as it was.
-                drop(port);
+                // The port goes away (its link removed, its pseudo-terminal
+                // closed) and comes back, the board as it was.
+                port.unplug(path);
+                core.replugged();
                 std::thread::sleep(std::time::Duration::from_secs_f64(emulator::REPLUG_GAP_S));
                 port = open()?;
                 emit(&format!(

@@ -81,6 +81,21 @@ impl Emulated {
     pub fn port(&mut self) -> &mut serialport::TTYPort {
         &mut self.port
     }
+
+    /// Closes the port as an unplugged device's goes: a new
+    /// pseudo-terminal's link at `path` is removed first (if it still
+    /// points there), as unplugging a USB device removes its port, then
+    /// the pseudo-terminal is closed. (Closed first, the link would point
+    /// at a freed pseudo-terminal number, which the next one made on this
+    /// machine takes: a host reopening the path would reach another
+    /// emulator.) A port that was there before is left as it is.
+    pub fn unplug(self, path: &Path) {
+        if let Endpoint::Pty { slave, .. } = &self.endpoint
+            && std::fs::read_link(path).is_ok_and(|t| t == *slave)
+        {
+            let _ = std::fs::remove_file(path);
+        }
+    }
 }
 
 /// Finds the emulator's port for `path`:

@@ -153,6 +153,18 @@ pub fn emulator_until(
     child
 }
 
+/// Unplugs the emulated device at `path` mid-session: its link is removed,
+/// as unplugging a USB device removes its port, then the emulator is
+/// killed (SIGKILL). In that order: a link left behind points at a freed
+/// pseudo-terminal number, which the next emulator started on this
+/// machine (a test running alongside) takes, and a host reopening the
+/// path would reach that one.
+pub fn unplug(mut child: std::process::Child, path: &std::path::Path) {
+    std::fs::remove_file(path).unwrap();
+    child.kill().unwrap();
+    child.wait().unwrap();
+}
+
 /// Stops a child process started by a test.
 pub fn stop(mut child: std::process::Child) {
     let _ = child.kill();

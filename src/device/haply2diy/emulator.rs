@@ -18,9 +18,12 @@
 //! as a real board's does.
 //!
 //! Faults for tests, when asked ([`Faults`]): the board loses its setup
-//! mid-session (as a board that browned out and restarted: it answers with
-//! its id alone), or its port goes away for [`REPLUG_GAP_S`] and comes back
-//! with the board still set up (a USB replug the board rode out).
+//! mid-session (as a board that browned out and restarted: its port goes
+//! away for [`REPLUG_GAP_S`] as the board's USB starts again, and it then
+//! answers with its id alone), or its port goes away for [`REPLUG_GAP_S`]
+//! and comes back with the board still set up (a USB replug the board
+//! rode out). Either way the board's serial input starts empty when the
+//! port comes back ([`BoardCore::replugged`]).
 //!
 //! Free constants of the emulated hand and linkage (not from a source; no
 //! result depends on their exact values, the tests ask only that the loop
@@ -268,6 +271,15 @@ impl BoardCore {
         self.torque = [0.0; 2];
     }
 
+    /// The board's port came back (a replug, or a restart): what was left
+    /// of a frame read before it went is gone with the USB link, and the
+    /// next byte read starts a frame. (Kept, it would take the new bytes
+    /// as that frame's rest and read every frame after it from the wrong
+    /// byte: a torque's zero bytes as resets.)
+    pub fn replugged(&mut self) {
+        self.input.clear();
+    }
+
     /// Whether a host has set the board up.
     #[must_use]
     pub fn is_set_up(&self) -> bool {
@@ -454,8 +466,9 @@ pub const REPLUG_GAP_S: f64 = 0.5;
 /// them on SIGUSR1 and SIGUSR2); each is cleared as it is shown.
 #[derive(Debug, Clone, Default)]
 pub struct Faults {
-    /// The board loses its setup (it restarted: the handle stays where it
-    /// is, torque frames are answered with the id alone); or, while it is
+    /// The board loses its setup (it restarted: its port goes away for
+    /// [`REPLUG_GAP_S`], the handle stays where it is, and torque frames
+    /// are answered with the id alone); or, while it is
     /// not set up, the handle is put at its calibration pose (as the
     /// experimenter is asked to).
     pub lose_setup: Arc<AtomicBool>,
@@ -467,9 +480,10 @@ pub struct Faults {
 /// Why [`serve`] returned without an error: a fault to show.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Served {
-    /// The board is to lose its setup ([`BoardCore::lose_setup`]), or,
-    /// not set up, its handle is to be put at its calibration pose
-    /// ([`BoardCore::park`]); then it is served again on the same port.
+    /// The board is to restart, losing its setup ([`BoardCore::lose_setup`];
+    /// its port goes away for [`REPLUG_GAP_S`]), or, not set up, its
+    /// handle is to be put at its calibration pose ([`BoardCore::park`],
+    /// on the same port); then it is served again.
     LoseSetup,
     /// The port is to go away for [`REPLUG_GAP_S`] and be served again,
     /// the board as it is.
