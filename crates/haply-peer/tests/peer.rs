@@ -82,7 +82,6 @@ async fn the_vendors_haply_device_connects_reads_state_and_sends_forces_to_our_s
     let (_, _, press_hz) = emulator::HAND_PRESS_M;
     let period_messages = (1.0 / press_hz / 0.001).round() as u32;
     let mut settle = async |z: f32| {
-        let mut rendered = None;
         for _ in 0..period_messages {
             let force = Vec3D { x: 0.0, y: 0.0, z };
             let input = ForceInput {
@@ -93,27 +92,26 @@ async fn the_vendors_haply_device_connects_reads_state_and_sends_forces_to_our_s
                 .update_force(vec![input], Some(true), Some(true))
                 .await
                 .unwrap();
-            let s = device.read_state().await.unwrap();
-            rendered = s
-                .inverse3
-                .first()
-                .and_then(|d| d.state.current_cursor_force)
-                .or(rendered);
         }
         // The last message's state frame: the service sends nothing
         // more, and its physics stands still, until the next message, so
         // the position read stops changing once the client has taken
-        // every frame sent.
-        let z = async || {
+        // every frame sent. That frame answers the last message: the
+        // force it reports is that message's. (A frame read while the
+        // messages were sent may answer any earlier one: the client
+        // reads the frames behind what it sends, by as many as the
+        // scheduler lets pile up.)
+        let state = async || {
             let s = device.read_state().await.unwrap();
-            s.inverse3[0].state.cursor_position.unwrap().z
+            let d = &s.inverse3[0].state;
+            (d.cursor_position.unwrap().z, d.current_cursor_force)
         };
-        let mut last = z().await;
+        let mut last = state().await;
         loop {
             tokio::time::sleep(Duration::from_millis(50)).await;
-            let now = z().await;
-            if now == last {
-                break (now, rendered);
+            let now = state().await;
+            if now.0 == last.0 {
+                break now;
             }
             last = now;
         }
