@@ -195,6 +195,26 @@ fn run_session(protocol: &str, dev: &Path, out: &Path, extra: &[&str]) -> Output
         .unwrap()
 }
 
+/// Runs a session on the QEMU board to its end ([`finish`]).
+fn run_to_the_end(protocol: &str, dev: &Path, out: &Path) -> (Output, u32) {
+    finish(protocol, dev, out, run_session(protocol, dev, out, &[]))
+}
+
+/// Resumes the session a run (`o`) left, while the board's faults end it:
+/// exit 3 (a trial presented 3 times in a row and aborted each time, as a
+/// loaded machine can make QEMU's real-time board, or a board silent for
+/// the device timeout; issue 63), as a lab would once the device is seen
+/// to, at most 20 times. The last run's output, and how many resumes it
+/// took.
+fn finish(protocol: &str, dev: &Path, out: &Path, mut o: Output) -> (Output, u32) {
+    let mut resumed = 0;
+    while o.status.code() == Some(3) && resumed < 20 {
+        resumed += 1;
+        o = run_session(protocol, dev, out, &["--resume"]);
+    }
+    (o, resumed)
+}
+
 fn log_path(out: &Path, protocol: &str) -> PathBuf {
     out.join(format!(
         "logs/study-{}_subject-p_session-1_log.jsonl",
@@ -204,7 +224,10 @@ fn log_path(out: &Path, protocol: &str) -> PathBuf {
 
 /// magnitude-quick and paired-quick run on the firmware in QEMU, rendered
 /// on board (f32, the board's 5 kHz), and every stream re-renders on the
-/// host bit for bit.
+/// host bit for bit. On a loaded machine QEMU's board falls behind real
+/// time: a presentation whose model is not in effect within 1 s is aborted
+/// and presented again, never kept, and a third in a row ends the run
+/// (exit 3), which is then resumed ([`run_to_the_end`]).
 #[test]
 fn quick_sessions_run_on_the_firmware_in_qemu_and_rerender_bit_exact_issue_16() {
     let Some((_turn, dir, dev)) = setup() else {
@@ -213,7 +236,7 @@ fn quick_sessions_run_on_the_firmware_in_qemu_and_rerender_bit_exact_issue_16() 
     let _board = Qemu::boot(&dev);
     for (protocol, trials) in [("magnitude-quick", 6), ("paired-quick", 1)] {
         let out = dir.path().join(protocol);
-        let o = run_session(protocol, &dev, &out, &[]);
+        let (o, resumed) = run_to_the_end(protocol, &dev, &out);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let log = read_log::<Registry>(&log_path(&out, protocol)).unwrap();
         assert!(log.ended);
@@ -235,7 +258,7 @@ fn quick_sessions_run_on_the_firmware_in_qemu_and_rerender_bit_exact_issue_16() 
             .map(|x| x["missing_ticks"].as_u64().unwrap())
             .sum();
         eprintln!(
-            "{protocol} on the QEMU firmware: {} streams, {} rows re-rendered, max |dF| {} N, max |dvib| {}, {missing} ticks of telemetry lost, aborted {}",
+            "{protocol} on the QEMU firmware: {} streams, {} rows re-rendered, max |dF| {} N, max |dvib| {}, {missing} ticks of telemetry lost, aborted {}, resumed {resumed} times",
             r.streams,
             r.rows,
             r.force,
@@ -371,16 +394,8 @@ fn a_session_survives_qemu_killed_and_restarted_issue_16() {
     let first = run.join().unwrap();
     // The run finishes on the restarted board, or gives up (exit 3) and the
     // session is resumed.
-    if !first.status.success() {
-        assert_eq!(
-            first.status.code(),
-            Some(3),
-            "{}",
-            String::from_utf8_lossy(&first.stderr)
-        );
-        let o = run_session("magnitude-quick", &dev, &out, &["--resume"]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    }
+    let (o, _) = finish("magnitude-quick", &dev, &out, first);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let log = read_log::<Registry>(&log).unwrap();
     assert!(log.ended);
     assert_eq!(common::completed_trials(&log), (0..6).collect::<Vec<_>>());

@@ -667,4 +667,57 @@ mod tests {
                 .all(|r| r.abort_reason.as_deref() == Some("device lost"))
         );
     }
+
+    /// Issue 63: a device that renders on board and shows none of the
+    /// renders sent after 0.5 s (`loopback:deaf`) keeps no trial presented
+    /// after then: each presentation is aborted once its model is not in effect within
+    /// RENDER_IN_EFFECT_WITHIN_S, presented again, and the third ends the
+    /// run as a device failure (before the rule, every trial completed,
+    /// the stimulus never felt).
+    #[test]
+    fn a_device_that_never_renders_the_trials_model_keeps_no_trial() {
+        let tmp = tempfile::tempdir().unwrap();
+        let err = on_loopback("deaf", tmp.path(), |dir, req| {
+            run_device(dir, req, 5.0, sim_participant, None, &mut |_, _| {})
+        })
+        .unwrap_err();
+        let SessionError::DeviceFailed {
+            failure:
+                DeviceFailure::Faults {
+                    trial,
+                    presentations,
+                    fault,
+                },
+            ..
+        } = &err
+        else {
+            panic!("{err}");
+        };
+        let want = format!(
+            "the device did not render what it was sent within {} s",
+            super::super::RENDER_IN_EFFECT_WITHIN_S
+        );
+        assert_eq!((*presentations, fault.as_str()), (3, want.as_str()));
+        let read = log_of(tmp.path());
+        // A trial whose renders were all sent before the device went deaf
+        // completes, its model in effect; no other does.
+        for r in read
+            .trials
+            .iter()
+            .filter(|r| r.status.as_str() == "completed")
+        {
+            assert!(
+                r.rendering.iter().any(|e| e.model.is_some()),
+                "trial {} kept without its model in effect",
+                r.trial
+            );
+        }
+        let of_trial: Vec<_> = read.trials.iter().filter(|r| r.trial == *trial).collect();
+        assert_eq!(of_trial.len(), 3, "presented no more");
+        assert!(
+            of_trial
+                .iter()
+                .all(|r| r.abort_reason.as_deref() == Some(want.as_str()))
+        );
+    }
 }

@@ -171,6 +171,19 @@ pub const MAX_FRAME_STEP_S: f64 = 0.5;
 /// the device is seen to.
 pub const MAX_DEVICE_FAULTS_IN_A_ROW: u32 = 3;
 
+/// A render sent to a device is in effect there within this long, s, or
+/// the trial under way is aborted for a device fault ("the device did not
+/// render what it was sent"), presented again, and counted toward
+/// [`MAX_DEVICE_FAULTS_IN_A_ROW`]. A device that renders on board shows
+/// a render in effect in its telemetry; one the loop renders, at once.
+/// Our choice: 1 s is far beyond any link that works (a USB board: a few
+/// ms; our board in QEMU on a loaded machine: up to 0.6 s seen), and the
+/// loop has resent it 4 times by then (after 50, 100, 200 and 400 ms). A
+/// trial whose stimulus never took effect was kept as completed before
+/// (issue 63: on the QEMU board under load, a magnitude trial rendered the
+/// previous trial's stimulus for its whole 2 s).
+pub const RENDER_IN_EFFECT_WITHIN_S: f64 = 1.0;
+
 /// The abort reason of a trial under way when the run ends for a device
 /// failure.
 pub const DEVICE_FAILED: &str = "device failed";
@@ -407,6 +420,9 @@ pub struct Session<R: Responder> {
     loop_rate_hz: f64,
     /// The device fault behind the abort queued for the trial under way.
     fault_queued: Option<String>,
+    /// The newest render sent to a port that its ticks have not yet shown
+    /// in effect, and when it was sent ([`RENDER_IN_EFFECT_WITHIN_S`]).
+    render_due: Option<(u32, Time)>,
     /// Presentations in a row aborted for device faults.
     faults_in_a_row: u32,
     /// A device failure found while fed, to end the run with once the feed
@@ -624,6 +640,7 @@ impl<R: Responder> Session<R> {
             catching_up: false,
             loop_rate_hz: rate_hz,
             fault_queued: None,
+            render_due: None,
             faults_in_a_row: 0,
             failing: None,
             failure: None,
@@ -977,6 +994,11 @@ impl<R: Responder> Session<R> {
                     open.streams.multi_axis();
                 }
             }
+            if self.render_late(tick.render) {
+                // The abort takes effect now, as a lost device's.
+                self.settle()?;
+                continue;
+            }
             let Device::Port(port) = &mut self.device else {
                 break;
             };
@@ -1086,6 +1108,29 @@ impl<R: Responder> Session<R> {
         }
         self.off_track_m = None;
         self.on_track_since = None;
+        true
+    }
+
+    /// Whether a tick showing `render` in effect finds the render last
+    /// sent late ([`RENDER_IN_EFFECT_WITHIN_S`]) during a trial: if so,
+    /// that trial's abort is queued, for a device fault.
+    fn render_late(&mut self, render: u32) -> bool {
+        let Some((due, since)) = self.render_due else {
+            return false;
+        };
+        if render != crate::device::haptic::UNKNOWN_RENDER && render >= due {
+            self.render_due = None;
+            return false;
+        }
+        if (self.t - since).secs() <= RENDER_IN_EFFECT_WITHIN_S || !self.engine.in_trial() {
+            return false;
+        }
+        self.render_due = None;
+        let fault = format!(
+            "the device did not render what it was sent within {RENDER_IN_EFFECT_WITHIN_S} s"
+        );
+        self.interrupt_trial(&fault);
+        self.fault_queued.get_or_insert(fault);
         true
     }
 
@@ -1385,6 +1430,9 @@ impl<R: Responder> Session<R> {
     fn render(&mut self, model: Option<&ModelParams>) -> u32 {
         let render = self.renders.send(model.cloned());
         self.device.render(render, model);
+        if matches!(self.device, Device::Port(_)) {
+            self.render_due = Some((render, self.t));
+        }
         self.sim_selected = self.device.is_sim();
         if let Some(how) = self.device.sim_how() {
             self.row_render.1 = how;

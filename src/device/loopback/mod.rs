@@ -7,10 +7,15 @@
 //! (the link lost 0.15 s of every 0.6 s), `dies` (its loop panics at
 //! 0.3 s) and `asks` (it asks for its calibration pose at 1 s, the link
 //! lost until confirmed) make the device faults the session must end or
-//! ride out (issue 63).
+//! ride out (issue 63); `deaf` renders on board (in its own telemetry's
+//! terms) and takes no render sent after 0.5 s: it goes on showing the one
+//! it had, as a board whose link drops every select would.
 
-use super::backend::{Backend, Capabilities, LinkState, Reading, Request, Vector};
+use super::backend::{
+    Backend, Capabilities, LinkState, Mode, OnBoard, Reading, Request, Tick, Vector,
+};
 use super::sim::RealTime;
+use crate::friction::ModelParams;
 use crate::hand::HandDrive;
 
 /// The device kind: `loopback:` with any target.
@@ -32,6 +37,7 @@ enum Behaviour {
     Flaps,
     Dies,
     Asks,
+    Deaf,
 }
 
 struct Loopback {
@@ -40,7 +46,12 @@ struct Loopback {
     /// It asks for its calibration pose (`asks`), until confirmed.
     asking: bool,
     confirmed: bool,
+    /// The render a `deaf` device shows in effect.
+    in_effect: u32,
 }
+
+/// A `deaf` device takes the renders sent until then, s.
+const DEAF_AFTER_S: f64 = 0.5;
 
 impl Loopback {
     fn new(target: &str) -> Self {
@@ -50,10 +61,12 @@ impl Loopback {
                 "flaps" => Behaviour::Flaps,
                 "dies" => Behaviour::Dies,
                 "asks" => Behaviour::Asks,
+                "deaf" => Behaviour::Deaf,
                 _ => Behaviour::Steady,
             },
             asking: false,
             confirmed: false,
+            in_effect: super::backend::UNKNOWN_RENDER,
         }
     }
 }
@@ -96,5 +109,37 @@ impl Backend for Loopback {
     fn confirm(&mut self, _now_s: f64) {
         self.asking = false;
         self.confirmed = true;
+    }
+
+    fn on_board(&mut self) -> Option<&mut dyn OnBoard> {
+        (self.behaviour == Behaviour::Deaf).then_some(self as &mut dyn OnBoard)
+    }
+}
+
+impl OnBoard for Loopback {
+    fn select(&mut self, now_s: f64, render: u32, _model: Option<&ModelParams>) -> bool {
+        if now_s < DEAF_AFTER_S {
+            self.in_effect = render;
+        }
+        true
+    }
+
+    /// One tick at the apparatus's position, rendering nothing: what it
+    /// renders is not the point, which render it shows is.
+    fn ticks(&mut self, now_s: f64, reading: &Reading, emit: &mut dyn FnMut(Tick)) -> bool {
+        let limit_n = self.apparatus.capabilities().force_limit_n;
+        emit(Tick {
+            link: reading.link,
+            render: self.in_effect,
+            mode: Mode::OnBoard {
+                rate_hz: 1000,
+                float: crate::friction::Float::F64,
+                #[expect(clippy::cast_possible_truncation, reason = "the wire's f32")]
+                limit_n: limit_n as f32,
+            },
+            device_limit_n: limit_n,
+            ..Tick::on_axis(now_s, reading.position_m[0], 0.0, 0.0, 0.0)
+        });
+        true
     }
 }
