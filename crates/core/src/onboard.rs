@@ -192,8 +192,12 @@ impl<T: Real> BoardLoop<T> {
                 let n = usize::from(count);
                 let complete = n <= MAX_VALUES && self.staged_mask & ((1 << n) - 1) == (1 << n) - 1;
                 let values = self.staged.get(..n).unwrap_or(&[]);
+                // A model of no numbers (`none`) is sent with no upload.
                 self.queue(
-                    if kind == self.staged_kind && complete && values_check(values) == check {
+                    if (kind == self.staged_kind || n == 0)
+                        && complete
+                        && values_check(values) == check
+                    {
                         let mut flat = Flat {
                             kind,
                             len: n,
@@ -615,6 +619,30 @@ mod tests {
             labels,
             [(12, true), (13, true), (14, true), (15, true), (15, false)]
         );
+    }
+
+    /// Issue 63: the `none` model (a Fitts baseline's) has no numbers, so
+    /// no upload goes before its select, whatever kind was staged last: it
+    /// takes effect (it was refused, and the device went on showing the
+    /// render before it).
+    #[test]
+    fn the_none_model_needs_no_upload() {
+        let mut board = BoardLoop::<f32>::new(5000, ForceLimit::default());
+        upload(&ModelParams::default_for("karnopp").unwrap(), 1, |m| {
+            board.receive(&m);
+        });
+        assert_eq!(
+            shown(&board.tick(input(0.01, 0.1), false, false)),
+            (1, true)
+        );
+        let mut sent = 0;
+        upload(&ModelParams::None, 2, |m| {
+            sent += 1;
+            board.receive(&m);
+        });
+        assert_eq!(sent, 1, "the select alone");
+        let d = board.tick(input(0.01, 0.1), false, false);
+        assert_eq!(shown(&d), (2, true));
     }
 
     #[test]
