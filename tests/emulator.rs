@@ -68,19 +68,36 @@ fn a_session_of_runs_on(
     (trials, session): (usize, u32),
 ) -> Duration {
     let started = Instant::now();
-    let o: Output = Command::new(env!("CARGO_BIN_EXE_frictionlab"))
-        .arg("run")
-        .arg(path)
-        .args(["--participant", "p", "--out"])
-        .arg(out)
-        .arg("--device")
-        .arg(dev)
-        .args(["--responder", "sim", "--seed", "5"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .output()
-        .unwrap();
+    let run = |resume: bool| -> Output {
+        Command::new(env!("CARGO_BIN_EXE_frictionlab"))
+            .arg("run")
+            .arg(path)
+            .args(["--participant", "p", "--out"])
+            .arg(out)
+            .arg("--device")
+            .arg(dev)
+            .args(["--responder", "sim", "--seed", "5"])
+            .args(if resume { &["--resume"][..] } else { &[] })
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .output()
+            .unwrap()
+    };
+    // A machine loaded beyond what the link's 100 ms lost-device time
+    // allows (a build beside the tests, and the relays of these tests in
+    // the test's own process) can lose the device for a trial 3 times in
+    // a row: the run ends with exit 3, its completed trials kept (issue
+    // 63's rule), and is resumed as a lab would, at most 20 times.
+    let mut o = run(false);
+    let mut resumed = 0;
+    while o.status.code() == Some(3) && resumed < 20 {
+        resumed += 1;
+        o = run(true);
+    }
     let took = started.elapsed();
+    if resumed > 0 {
+        eprintln!("{id}: the device's faults ended the run; resumed {resumed} times");
+    }
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let log = out.join(format!(
         "logs/study-{}_subject-p_session-{session}_log.jsonl",
