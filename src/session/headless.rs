@@ -557,16 +557,21 @@ mod tests {
         assert_eq!(streams, read.trials.len());
     }
 
+    /// The error a headless run on `loopback:TARGET` ends with.
+    fn fails_on_loopback(target: &str, dir: &std::path::Path) -> SessionError {
+        on_loopback(target, dir, |dir, req| {
+            run_device(dir, req, 5.0, sim_participant, None, &mut |_, _| {})
+        })
+        .unwrap_err()
+    }
+
     /// Issue 63: a haptic loop whose thread panics ends the run as a
     /// device failure (exit 3 on the command line), saying why; the log
     /// is left for a resume, its reason noted.
     #[test]
     fn a_haptic_loop_that_dies_ends_the_run_as_a_device_failure() {
         let tmp = tempfile::tempdir().unwrap();
-        let err = on_loopback("dies", tmp.path(), |dir, req| {
-            run_device(dir, req, 5.0, sim_participant, None, &mut |_, _| {})
-        })
-        .unwrap_err();
+        let err = fails_on_loopback("dies", tmp.path());
         let SessionError::DeviceFailed {
             failure: DeviceFailure::LoopDied(why),
             ..
@@ -677,10 +682,7 @@ mod tests {
     #[test]
     fn a_device_that_never_renders_the_trials_model_keeps_no_trial() {
         let tmp = tempfile::tempdir().unwrap();
-        let err = on_loopback("deaf", tmp.path(), |dir, req| {
-            run_device(dir, req, 5.0, sim_participant, None, &mut |_, _| {})
-        })
-        .unwrap_err();
+        let err = fails_on_loopback("deaf", tmp.path());
         let SessionError::DeviceFailed {
             failure:
                 DeviceFailure::Faults {
