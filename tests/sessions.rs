@@ -419,7 +419,11 @@ fn killed_at_random_moments_then_resumed_every_trial_is_logged_once_with_the_sam
     // land at varied moments (mid-trial, between trials, mid-write).
     let p = protocol("magnitude-quick");
     let out = dir.path().to_str().unwrap().to_owned();
+    let log_path = dir
+        .path()
+        .join("logs/study-magnitudequick_subject-k_session-1_log.jsonl");
     let mut waits_ms = [330_u64, 170, 410, 90, 260, 530, 140].into_iter().cycle();
+    let errs = tempfile::tempdir().unwrap();
     let mut kills = 0;
     for attempt in 0..60 {
         let mut args = vec![
@@ -439,10 +443,11 @@ fn killed_at_random_moments_then_resumed_every_trial_is_logged_once_with_the_sam
         if attempt > 0 {
             args.push("--resume");
         }
+        let stderr = errs.path().join(format!("{attempt}.txt"));
         let mut child = Command::new(env!("CARGO_BIN_EXE_frictionlab"))
             .args(&args)
             .stdout(Stdio::null())
-            .stderr(Stdio::null())
+            .stderr(std::fs::File::create(&stderr).unwrap())
             .spawn()
             .unwrap();
         std::thread::sleep(Duration::from_millis(waits_ms.next().unwrap()));
@@ -450,17 +455,24 @@ fn killed_at_random_moments_then_resumed_every_trial_is_logged_once_with_the_sam
             child.kill().unwrap(); // SIGKILL
             child.wait().unwrap();
             kills += 1;
+            // A kill can land after the session's `end` line, as the
+            // process exits: the session is then complete, and resuming
+            // it is refused ("nothing to resume").
+            if read_log::<Registry>(&log_path).is_ok_and(|log| log.ended) {
+                break;
+            }
             continue;
         }
-        assert!(child.wait().unwrap().success(), "attempt {attempt}");
+        let status = child.wait().unwrap();
+        assert!(
+            status.success(),
+            "attempt {attempt}: {status}: {}",
+            std::fs::read_to_string(&stderr).unwrap()
+        );
         break;
     }
     assert!(kills >= 3, "the run was interrupted {kills} times");
-    let log = read_log::<Registry>(
-        &dir.path()
-            .join("logs/study-magnitudequick_subject-k_session-1_log.jsonl"),
-    )
-    .unwrap();
+    let log = read_log::<Registry>(&log_path).unwrap();
     assert!(log.ended, "finished after {kills} kills");
     let mut logged: Vec<usize> = log.trials.iter().map(|r| r.trial).collect();
     logged.sort_unstable();
