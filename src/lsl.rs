@@ -4,10 +4,16 @@
 //! The session (on its own thread: the headless loop, or the window's) hands
 //! each marker and sample to a [`Publisher`] already stamped with LSL's
 //! clock at the moment it happened ([`Clock`]); a worker thread pushes them
-//! into liblsl. The hand-over is a queue under a mutex: markers are never
-//! dropped; device samples are bounded (2 s of them), the oldest dropped
-//! and counted when the worker lags. So pushing, and whatever liblsl does
-//! with no consumer or a slow one, never holds up the session.
+//! into liblsl. Markers are handed over in a queue under a mutex, and
+//! never dropped. Device samples go through a wait-free ring with one
+//! producer (the session, or a port's haptic loop through its
+//! [`SampleTap`]) and one consumer (the worker), bounded at 2 s of them: a
+//! sample that finds the ring full is dropped and counted. The haptic loop
+//! runs at real-time priority and must never wait on a lock a thread of
+//! normal priority holds: under a concurrent build it did, on this queue's
+//! mutex, for up to 88 ms, and an on-board board was judged lost (issue
+//! 63). So pushing, and whatever liblsl does with no consumer or a slow
+//! one, never holds up the session or the loop.
 //!
 //! # Streams first (issue 42)
 //! Both outlets exist before anything is pushed: [`Publisher::start`]
@@ -24,6 +30,7 @@
 
 use std::collections::VecDeque;
 use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
 use std::thread::JoinHandle;
 use std::time::Duration;
@@ -239,18 +246,21 @@ impl Latencies {
 /// One queued sample: the values, its LSL time, when the session read it.
 type Sample = ([f32; 5], f64, f64);
 
+/// The device stream as the worker gets it: its outlet, its channels, and
+/// the consumer end of its samples' ring.
+type DeviceOutlet = (frictionlab_lsl::Outlet, usize, rtrb::Consumer<Sample>);
+
 struct Queue {
     markers: VecDeque<(String, f64, f64)>,
-    samples: VecDeque<Sample>,
-    device: Option<(frictionlab_lsl::Outlet, usize)>,
-    sample_cap: usize,
-    dropped: u64,
+    device: Option<DeviceOutlet>,
     closing: bool,
 }
 
 struct Shared {
     queue: Mutex<Queue>,
     ready: Condvar,
+    /// Device samples that found the ring full.
+    dropped: AtomicU64,
 }
 
 impl Shared {
@@ -258,24 +268,23 @@ impl Shared {
         self.queue.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
-    /// Queues a sample (the oldest dropped, and counted, when full). The
-    /// worker is not woken: it takes the samples every [`SAMPLE_PERIOD`],
-    /// so a haptic loop pays one brief lock per tick, no system call.
-    fn sample(&self, values: [f32; 5], at: f64, handled: f64) {
-        let mut q = self.lock();
-        if q.samples.len() >= q.sample_cap {
-            q.samples.pop_front();
-            q.dropped += 1;
+    /// Queues a sample on `ring` (dropped, and counted, when it is full):
+    /// wait-free, no lock, no system call. The worker is not woken: it
+    /// takes the samples every [`SAMPLE_PERIOD`].
+    fn sample(&self, ring: &mut rtrb::Producer<Sample>, sample: Sample) {
+        if ring.push(sample).is_err() {
+            self.dropped.fetch_add(1, Ordering::Relaxed);
         }
-        q.samples.push_back((values, at, handled));
     }
 }
 
-/// Queues device samples into a [`Publisher`] from another thread.
-#[derive(Clone)]
+/// Queues device samples into a [`Publisher`] from another thread (the
+/// ring's one producer, moved there from the publisher).
 pub struct SampleTap {
     lsl: Arc<Lsl>,
     shared: Arc<Shared>,
+    /// Only the thread that pushes locks it: never contended.
+    ring: Mutex<rtrb::Producer<Sample>>,
     lsl0: f64,
 }
 
@@ -287,17 +296,14 @@ impl std::fmt::Debug for SampleTap {
     }
 }
 
-impl PartialEq for SampleTap {
-    fn eq(&self, other: &Self) -> bool {
-        Arc::ptr_eq(&self.shared, &other.shared) && self.lsl0 == other.lsl0
-    }
-}
-
 impl SampleTap {
     /// Queues the sample of the tick at loop time `now_s`.
     pub fn push(&self, now_s: f64, values: [f32; 5]) {
-        self.shared
-            .sample(values, self.lsl0 + now_s, self.lsl.local_clock());
+        let mut ring = self.ring.lock().unwrap_or_else(PoisonError::into_inner);
+        self.shared.sample(
+            &mut ring,
+            (values, self.lsl0 + now_s, self.lsl.local_clock()),
+        );
     }
 }
 
@@ -315,6 +321,9 @@ struct Pushed {
 pub struct Publisher {
     lsl: Arc<Lsl>,
     shared: Arc<Shared>,
+    /// The device samples' ring, until [`Publisher::sample_tap`] hands it
+    /// to a port's haptic loop.
+    samples: Option<rtrb::Producer<Sample>>,
     /// The marker outlet until [`Publisher::open`] hands it to the worker.
     markers: Option<frictionlab_lsl::Outlet>,
     worker: Option<JoinHandle<Pushed>>,
@@ -360,17 +369,16 @@ impl Publisher {
         let shared = Arc::new(Shared {
             queue: Mutex::new(Queue {
                 markers: VecDeque::new(),
-                samples: VecDeque::new(),
                 device: None,
-                sample_cap: 10_000,
-                dropped: 0,
                 closing: false,
             }),
             ready: Condvar::new(),
+            dropped: AtomicU64::new(0),
         });
         Ok(Publisher {
             lsl: lsl.clone(),
             shared,
+            samples: None,
             markers: Some(markers),
             worker: None,
             source_id: source_id.to_owned(),
@@ -399,7 +407,7 @@ impl Publisher {
         let device = self.shared.lock().device.take();
         let device_reader = device
             .as_ref()
-            .is_some_and(|(o, _)| left(&self.lsl) > 0.0 && o.wait_for_consumers(left(&self.lsl)));
+            .is_some_and(|(o, ..)| left(&self.lsl) > 0.0 && o.wait_for_consumers(left(&self.lsl)));
         if device.is_some() {
             self.shared.lock().device = device;
         }
@@ -437,7 +445,7 @@ impl Publisher {
         let text = serde_json::Value::Object(object).to_string();
         let handled = self.now();
         let mut q = self.shared.lock();
-        let idle = q.markers.is_empty() && q.samples.is_empty();
+        let idle = q.markers.is_empty();
         q.markers.push_back((text, at, handled));
         drop(q);
         self.wake(idle);
@@ -462,41 +470,42 @@ impl Publisher {
             self.device_failed = true;
             return false;
         };
-        let mut q = self.shared.lock();
         #[expect(
             clippy::cast_possible_truncation,
             clippy::cast_sign_loss,
             reason = "a positive, modest count"
         )]
-        {
-            q.sample_cap = (stream.rate_hz * SAMPLE_QUEUE_S).clamp(64.0, 1e6) as usize;
-        }
-        q.device = Some(outlet);
-        drop(q);
+        let capacity = (stream.rate_hz * SAMPLE_QUEUE_S).clamp(64.0, 1e6) as usize;
+        let (producer, consumer) = rtrb::RingBuffer::new(capacity);
+        self.samples = Some(producer);
+        self.shared.lock().device = Some((outlet.0, outlet.1, consumer));
         self.shared.ready.notify_one();
         true
     }
 
     /// A handle that queues device samples from another thread (a port's
     /// haptic loop, which stamps each tick where it reads it): a tick at
-    /// loop time `now_s` is LSL time `lsl0 + now_s`.
+    /// loop time `now_s` is LSL time `lsl0 + now_s`. The samples' ring
+    /// moves to it: [`Publisher::sample`] queues nothing after this. None
+    /// without a device stream (or when a tap has it already).
     #[must_use]
-    pub fn sample_tap(&self, lsl0: f64) -> SampleTap {
-        SampleTap {
+    pub fn sample_tap(&mut self, lsl0: f64) -> Option<SampleTap> {
+        Some(SampleTap {
             lsl: self.lsl.clone(),
             shared: self.shared.clone(),
+            ring: Mutex::new(self.samples.take()?),
             lsl0,
-        }
+        })
     }
 
     /// Queues a device sample stamped `at` (LSL time): position m, velocity
     /// m/s, force N, vibration, and the device's tick (on board). When the
-    /// queue is full the oldest sample is dropped (counted).
+    /// ring is full the sample is dropped (counted).
     pub fn sample(&mut self, at: f64, values: [f32; 5]) {
-        if !self.device_open || self.device_failed {
-            return;
+        let handled = self.now();
+        if let Some(ring) = &mut self.samples {
+            self.shared.sample(ring, (values, at, handled));
         }
-        self.shared.sample(values, at, self.now());
     }
 
     /// Wakes the worker if the queue was empty (see [`Shared::sample`]).
@@ -515,7 +524,7 @@ impl Publisher {
         self.shared.lock().closing = true;
         self.shared.ready.notify_one();
         let pushed = self.worker.take().and_then(|w| w.join().ok());
-        let dropped = self.shared.lock().dropped;
+        let dropped = self.shared.dropped.load(Ordering::Relaxed);
         let version = self.lsl.version();
         let Some(p) = pushed else {
             return LslStats::default();
@@ -556,19 +565,19 @@ fn work(lsl: &Arc<Lsl>, shared: &Shared, markers: &frictionlab_lsl::Outlet) -> P
         sample_event: Latencies::new(),
         sample_push: Latencies::new(),
     };
-    let mut device: Option<(frictionlab_lsl::Outlet, usize)> = None;
-    let (mut marks, mut samples) = (VecDeque::new(), VecDeque::new());
+    let mut device: Option<DeviceOutlet> = None;
+    let mut marks = VecDeque::new();
     loop {
         let (open, closing) = {
             let mut q = shared.lock();
             // Markers, a new stream and the end wake the worker; samples
             // are taken every period while the device stream is open.
             while q.markers.is_empty() && q.device.is_none() && !q.closing {
-                if device.is_none() {
+                let Some((.., ring)) = &device else {
                     q = shared.ready.wait(q).unwrap_or_else(PoisonError::into_inner);
                     continue;
-                }
-                if !q.samples.is_empty() {
+                };
+                if !ring.is_empty() {
                     break;
                 }
                 q = shared
@@ -578,7 +587,6 @@ fn work(lsl: &Arc<Lsl>, shared: &Shared, markers: &frictionlab_lsl::Outlet) -> P
                     .0;
             }
             std::mem::swap(&mut marks, &mut q.markers);
-            std::mem::swap(&mut samples, &mut q.samples);
             (q.device.take(), q.closing)
         };
         if open.is_some() {
@@ -591,23 +599,21 @@ fn work(lsl: &Arc<Lsl>, shared: &Shared, markers: &frictionlab_lsl::Outlet) -> P
             out.marker_event.add(handled - at);
             out.marker_push.add(lsl.local_clock() - at);
         }
-        if let Some((outlet, channels)) = &device {
-            for (values, at, handled) in samples.drain(..) {
+        if let Some((outlet, channels, ring)) = &mut device {
+            while let Ok((values, at, handled)) = ring.pop() {
                 if outlet.push_f32(&values[..*channels], at) {
                     out.samples += 1;
                 }
                 out.sample_event.add(handled - at);
                 out.sample_push.add(lsl.local_clock() - at);
             }
-        } else {
-            samples.clear();
         }
         if closing {
             break;
         }
     }
     let listened =
-        markers.has_consumers() || device.as_ref().is_some_and(|(o, _)| o.has_consumers());
+        markers.has_consumers() || device.as_ref().is_some_and(|(o, ..)| o.has_consumers());
     if listened {
         std::thread::sleep(Duration::from_secs_f64(LINGER_S));
     }

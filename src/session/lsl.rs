@@ -326,8 +326,10 @@ impl Publishing {
             return Ok(());
         }
         let stream = device_stream(self, how, session.device_label());
-        if self.publisher.device(&stream) && !session.is_sim() {
-            let tap = self.publisher.sample_tap(self.clock().lsl0);
+        if self.publisher.device(&stream)
+            && !session.is_sim()
+            && let Some(tap) = self.publisher.sample_tap(self.clock().lsl0)
+        {
             session.offer_samples(Offer(Arc::new(LoopSamples(tap))));
         }
         self.publisher
