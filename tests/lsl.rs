@@ -345,36 +345,95 @@ fn labrecorder_started_before_the_session_records_both_streams_from_the_first_ma
     );
 }
 
+/// At most this many sessions for the on-board test: each one that a
+/// loaded host ends for device faults is checked against that promise.
+const BOARD_SESSIONS: usize = 5;
+
 #[test]
 fn a_device_rendering_on_board_publishes_its_telemetry_with_the_tick_channel() {
     let Some(t) = paced() else {
         return;
     };
-    let dev = t.dir.path().join("dev");
-    let mut emu = common::emulator_with(&dev, &["--on-board"]);
-    let (results, out) = (t.dir.path().join("r"), t.dir.path().join("got.json"));
-    let listener = inlet(&t.python, "frictionlab magnitude-quick lsl-board", &out, 1);
-    let run = frictionlab(&[
-        "run",
-        "protocols/magnitude-quick.json",
-        "--participant",
-        "lsl-board",
-        "--out",
-        results.to_str().unwrap(),
-        "--device",
-        dev.to_str().unwrap(),
-        "--responder",
-        "sim",
-        "--seed",
-        "3",
-        "--lsl",
-        "--lsl-lib",
-        t.lib.to_str().unwrap(),
-        "--lsl-wait",
-        "60",
-    ]);
-    let _ = emu.kill();
-    let _ = emu.wait();
+    // Under a concurrent build the kernel's tty work (its flush of a pty's
+    // bytes runs in workqueue threads at normal priority, as a USB serial
+    // port's does) held the emulated board's telemetry for 0.1-1.5 s,
+    // although the board and the haptic loop run at SCHED_FIFO: with those
+    // threads raised to FIFO the loop's worst period error was 1.4-3.8 ms,
+    // without it 106 ms to 1.49 s. A board silent that long is lost: the
+    // design's promise is that the trial is aborted and presented again,
+    // never kept, and that a run whose trial is aborted
+    // MAX_DEVICE_FAULTS_IN_A_ROW times in a row ends with exit 3 (issue
+    // 63). Such a run is checked for exactly that, and a new session is
+    // run; one must finish for the stream's own checks.
+    let mut runs = None;
+    for attempt in 0..BOARD_SESSIONS {
+        let participant = format!("lsl-board-{attempt}");
+        let dev = t.dir.path().join(format!("dev-{attempt}"));
+        let mut emu = common::emulator_with(&dev, &["--on-board"]);
+        let results = t.dir.path().join(format!("r-{attempt}"));
+        let out = t.dir.path().join(format!("got-{attempt}.json"));
+        let mut listener = inlet(
+            &t.python,
+            &format!("frictionlab magnitude-quick {participant}"),
+            &out,
+            1,
+        );
+        let run = frictionlab(&[
+            "run",
+            "protocols/magnitude-quick.json",
+            "--participant",
+            &participant,
+            "--out",
+            results.to_str().unwrap(),
+            "--device",
+            dev.to_str().unwrap(),
+            "--responder",
+            "sim",
+            "--seed",
+            "3",
+            "--lsl",
+            "--lsl-lib",
+            t.lib.to_str().unwrap(),
+            "--lsl-wait",
+            "60",
+        ]);
+        let _ = emu.kill();
+        let _ = emu.wait();
+        if run.status.code() == Some(3) {
+            let _ = listener.kill();
+            let _ = listener.wait();
+            let stderr = String::from_utf8_lossy(&run.stderr);
+            assert!(stderr.contains("times in a row"), "{stderr}");
+            let log = only_log(&results);
+            assert!(!log.ended, "{stderr}");
+            let aborted: Vec<_> = log
+                .trials
+                .iter()
+                .filter(|r| r.status != frictionlab::protocol::engine::Status::Completed)
+                .collect();
+            assert!(aborted.len() >= 3, "{stderr}");
+            // Each aborted for a device fault (lost, or its render not
+            // shown in effect in time) and presented again.
+            for r in aborted {
+                assert!(
+                    r.requeued
+                        && r.abort_reason.as_deref().is_some_and(|a| {
+                            a.starts_with("device lost")
+                                || a.starts_with("the device did not render")
+                        }),
+                    "trial {}: {:?}",
+                    r.trial,
+                    r.abort_reason
+                );
+            }
+            eprintln!("session {attempt}: ended for device faults under load (exit 3): {stderr}");
+            continue;
+        }
+        runs = Some((run, listener, out, results));
+        break;
+    }
+    let (run, listener, out, results) = runs
+        .unwrap_or_else(|| panic!("{BOARD_SESSIONS} sessions in a row ended for device faults"));
     let (got, log, marks) = session_received(&run, listener, &out, &results);
     assert_trial_times(&log, &marks);
     // The board's own loop sets this stream's rate, not the host's clock:
