@@ -127,19 +127,69 @@ fn assert_in_order(markers: &[(f64, Value)]) {
 }
 
 /// The markers a finished magnitude session's log implies: its start,
-/// instructions and their Continue, per block a start (and per block
-/// after the first a break and its Continue), per record a start, a
-/// stimulus on and off and an end, per completed one an answer, and the
-/// session's end.
+/// instructions and their Continue, per block a start, per break a break
+/// and its Continue, per record a start, a stimulus on and off and an
+/// end, per completed one an answer, and the session's end. A break comes
+/// before a presentation of another block than the last record finally
+/// logged (the engine's rule: a re-presented first trial of a block, its
+/// first presentation aborted, has its break again).
 fn implied_markers(log: &ReadLog) -> usize {
     let mut blocks = log.trials.iter().map(|r| r.block_index).collect::<Vec<_>>();
     blocks.dedup();
+    let (mut breaks, mut last_final) = (0, None);
+    for r in &log.trials {
+        if last_final.is_some_and(|b| b != r.block_index) {
+            breaks += 1;
+        }
+        if !r.requeued {
+            last_final = Some(r.block_index);
+        }
+    }
     let completed = log
         .trials
         .iter()
         .filter(|r| r.status == frictionlab::protocol::engine::Status::Completed)
         .count();
-    4 + blocks.len() + 2 * (blocks.len() - 1) + 4 * log.trials.len() + completed
+    4 + blocks.len() + 2 * breaks + 4 * log.trials.len() + completed
+}
+
+/// The markers of `marks` but a device's losses: each `device_lost` with
+/// its `device_back` after it (a device lost at least once per trial
+/// aborted for it).
+fn but_losses<'a>(log: &ReadLog, marks: &'a [(f64, Value)]) -> Vec<&'a (f64, Value)> {
+    let mut lost = false;
+    let mut losses = 0;
+    for (_, m) in marks {
+        match m["event"].as_str() {
+            Some("device_lost") => {
+                assert!(!lost, "device_lost twice: {m}");
+                (lost, losses) = (true, losses + 1);
+            }
+            Some("device_back") => {
+                assert!(lost, "device_back with no device_lost: {m}");
+                lost = false;
+            }
+            _ => {}
+        }
+    }
+    assert!(!lost, "a device_lost with no device_back");
+    let aborted_for_it = log
+        .trials
+        .iter()
+        .filter(|r| {
+            r.abort_reason
+                .as_deref()
+                .is_some_and(|a| a.starts_with("device lost"))
+        })
+        .count();
+    assert!(
+        losses >= aborted_for_it,
+        "{losses} losses, {aborted_for_it} trials aborted for one"
+    );
+    marks
+        .iter()
+        .filter(|(_, m)| m["event"] != "device_lost" && m["event"] != "device_back")
+        .collect()
 }
 
 /// A finished run's log and what the inlet got: every marker in order, as
@@ -159,7 +209,11 @@ fn session_received(
     let log = only_log(results);
     let marks = markers(&got);
     assert_in_order(&marks);
-    assert_eq!(marks.len(), implied_markers(&log), "{marks:?}");
+    assert_eq!(
+        but_losses(&log, &marks).len(),
+        implied_markers(&log),
+        "{marks:?}"
+    );
     (got, log, marks)
 }
 
