@@ -71,6 +71,17 @@ fn find() -> Vec<super::Found> {
 /// as long, up to 8 times this (a slow link is not flooded with copies).
 const RESEND_AFTER_S: f64 = 0.050;
 
+/// How far a telemetry's time on the loop's clock (its device tick from an
+/// anchor) may be from the time the host read it before the anchor moves,
+/// s: ahead, it is anchored afresh; behind, it follows at [`DRIFT_SLEW`].
+const ANCHOR_TOLERANCE_S: f64 = 0.1;
+
+/// The most the anchor moves forward per tick when telemetry falls behind
+/// the host's clock, as a share of the device's period: 1000 ppm, ten
+/// times a crystal's drift, so a slow clock is followed, and a burst of
+/// late ticks keeps its spacing.
+const DRIFT_SLEW: f64 = 1e-3;
+
 /// How many labels the loop remembers: renders sent while the device has
 /// not yet caught up (a lagging link) keep their meaning.
 const LABELS: usize = 16;
@@ -480,10 +491,24 @@ impl OnBoardState {
         self.ticks += 1;
         let (tick0, t0) = *self.anchor.get_or_insert((t.tick, now_s));
         let mut at = t0 + f64::from(t.tick.wrapping_sub(tick0)) * dt;
-        if (at - now_s).abs() > 0.1 {
-            // Restarted or drifted: anchor afresh.
+        if at > now_s + ANCHOR_TOLERANCE_S {
+            // Ahead of the clock that read it: the device restarted (its
+            // count went back), or the anchor was a tick that came late.
+            // Anchor afresh.
             self.anchor = Some((t.tick, now_s));
             at = now_s;
+        } else if at < now_s - ANCHOR_TOLERANCE_S {
+            // Behind: the telemetry was held up on its way (a loaded
+            // host's tty work), or the device's clock is slower than the
+            // host's. A tick happened when its count says: the anchor
+            // follows the host's clock by at most DRIFT_SLEW of a period
+            // per tick, so ticks read in a burst keep their own times, one
+            // period apart. (Anchored afresh on the host's clock, a burst
+            // ran ahead of it and was anchored back: 419 ticks of one
+            // stream had one time, issue 63.)
+            let slew = (now_s - ANCHOR_TOLERANCE_S - at).min(DRIFT_SLEW * dt);
+            self.anchor = Some((tick0, t0 + slew));
+            at += slew;
         }
         at = at.max(self.last_now);
         self.last_now = at;
@@ -558,6 +583,51 @@ mod tests {
         board.wanted = (20, None);
         board.send(0.7, None, |_| {});
         assert_eq!(board.resend_after(), 0.05);
+    }
+
+    /// Ticks read at once after their telemetry was held up keep their own
+    /// times, one period apart; a slow device clock is followed within
+    /// the tolerance; a device whose count went back is anchored afresh.
+    #[test]
+    fn ticks_read_late_keep_their_own_times_in_order() {
+        let mut board = OnBoardState::new();
+        let dt = 0.0002;
+        let mut times = Vec::new();
+        for k in 0..1000_u32 {
+            times.push(board.observe(&telemetry(k, 0), f64::from(k) * dt, dt));
+        }
+        // 0.5 s held up, then the 2500 ticks made meanwhile read at once.
+        let read_at = 0.2 + 0.5;
+        for k in 1000..3500_u32 {
+            times.push(board.observe(&telemetry(k, 0), read_at, dt));
+        }
+        assert!(
+            times.windows(2).all(|w| w[1] > w[0]),
+            "times increase with every tick"
+        );
+        let spacing = times[3499] - times[1000];
+        assert!(
+            (spacing - 2499.0 * dt).abs() <= 2499.0 * DRIFT_SLEW * dt + 1e-12,
+            "{spacing}"
+        );
+        assert!(times[1000] < 0.2 + 0.01, "tick 1000 at {}", times[1000]);
+        // A device clock 500 ppm slow is followed: never more than the
+        // tolerance behind.
+        let mut board = OnBoardState::new();
+        let mut last = 0.0;
+        for k in 0..200_000_u32 {
+            let now = f64::from(k) * dt * 1.0005;
+            last = board.observe(&telemetry(k, 0), now, dt);
+            assert!(
+                last >= now - ANCHOR_TOLERANCE_S - 1e-9,
+                "tick {k}: {last} at {now}"
+            );
+        }
+        // Restarted: its count went back; anchored on the host's clock,
+        // never before the last time.
+        let now = f64::from(200_000_u32) * dt * 1.0005;
+        let at = board.observe(&telemetry(3, 0), now, dt);
+        assert!(at >= last && at <= now, "{at}");
     }
 
     /// A render that changed without a select from one tick to the next
