@@ -108,6 +108,8 @@ def main():
             else:
                 quiet_since = None
     ticks_consecutive = all(b - a == 1 for a, b in zip(ticks, ticks[1:]))
+    ticks_increasing = all(b > a for a, b in zip(ticks, ticks[1:]))
+    ticks_skipped = sum(int(b - a - 1) for a, b in zip(ticks, ticks[1:]) if b > a)
     out = {
         "markers": received,
         "marker_source_id": marker_info.source_id(),
@@ -130,6 +132,8 @@ def main():
             "gaps": gaps,
             "gap_s": gap_s,
             "ticks_consecutive": ticks_consecutive,
+            "ticks_increasing": ticks_increasing,
+            "ticks_skipped": ticks_skipped,
             "ticks": len(ticks),
         },
     }
