@@ -79,26 +79,20 @@ fn only_log(results: &Path) -> ReadLog {
     read_log::<Registry>(&logs[0]).unwrap()
 }
 
-/// The log's `loop` line (the haptic loop's statistics).
-fn only_loop_line(results: &Path) -> Value {
+/// The log's lines of type `kind`.
+fn log_lines(results: &Path, kind: &str) -> Vec<Value> {
     let logs = common::session_logs(results);
     std::fs::read_to_string(&logs[0])
         .unwrap()
         .lines()
         .filter_map(|l| serde_json::from_str::<Value>(l).ok())
-        .find(|v| v["type"] == "loop")
-        .unwrap()
+        .filter(|v| v["type"] == kind)
+        .collect()
 }
 
 /// The log's `lsl` lines.
 fn lsl_lines(results: &Path) -> Vec<Value> {
-    let logs = common::session_logs(results);
-    std::fs::read_to_string(&logs[0])
-        .unwrap()
-        .lines()
-        .filter_map(|l| serde_json::from_str::<Value>(l).ok())
-        .filter(|v| v["type"] == "lsl")
-        .collect()
+    log_lines(results, "lsl")
 }
 
 /// The markers as (timestamp, object).
@@ -517,7 +511,9 @@ fn a_device_rendering_on_board_publishes_its_telemetry_with_the_tick_channel() {
     assert_eq!(d["mode"], "on_board");
     assert_eq!(d["ticks_increasing"], true, "device ticks out of order");
     assert_eq!(d["ticks"], d["count"]);
-    let gaps = only_loop_line(&results)["telemetry_gaps"].as_u64().unwrap();
+    let gaps = log_lines(&results, "loop")[0]["telemetry_gaps"]
+        .as_u64()
+        .unwrap();
     if gaps == 0 && events(&marks, "device_lost").is_empty() {
         assert_eq!(d["ticks_consecutive"], true, "device ticks skipped");
     } else {
