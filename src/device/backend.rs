@@ -308,6 +308,25 @@ pub trait Backend: Send {
     }
 }
 
+/// A device whose time is a session's to keep: the simulated apparatus,
+/// in this process, stepped in session time by a [`super::stepped::Stepped`]
+/// loop (rather than by a clock: a replay is exact, and runs as fast as
+/// the machine can). A tick is `read`, `send_force`, then [`Virtual::elapse`].
+pub trait Virtual: Backend {
+    /// `dt` s pass: the device moves under the force last sent, and the
+    /// hand on it pushes with `hand_force_n` N along its axis.
+    fn elapse(&mut self, dt: f64, hand_force_n: f64);
+
+    /// Puts the device at rest at `x_m` (the hand repositions it between
+    /// trials).
+    fn place(&mut self, x_m: f64);
+
+    /// The physical friction of a condition from now on (a block on
+    /// rubber, say: part of the apparatus, not rendered; on a real device
+    /// it is really there).
+    fn set_physical(&mut self, model: Option<&ModelParams>);
+}
+
 /// A device that renders models itself.
 pub trait OnBoard {
     /// From now on, `model` (or nothing) as the session's render `render`.

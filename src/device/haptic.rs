@@ -28,7 +28,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use super::backend::{Backend, LinkState, MAX_AXES, Vector};
+use super::backend::{Backend, LinkState, MAX_AXES, Reading, Vector};
 pub use super::backend::{Mode, Request, Tick, UNKNOWN_RENDER};
 use super::track::Track;
 use crate::friction::{ForceLimit, Input, ModelParams, StepParams};
@@ -257,19 +257,6 @@ impl Drop for HapticLoop {
     }
 }
 
-/// Hands a tick to the session and, when a sink asked, to it (a connected
-/// tick only). Ticks' times never go back (`last_s`: the time of the last).
-fn emit(outbox: &mut rtrb::Producer<Tick>, sink: Option<&Offer>, last_s: &mut f64, mut tick: Tick) {
-    tick.now_s = tick.now_s.max(*last_s);
-    *last_s = tick.now_s;
-    if let Some(sink) = sink
-        && tick.link == LinkState::Connected
-    {
-        sink.0.offer(&tick);
-    }
-    let _ = outbox.push(tick);
-}
-
 /// The hand's state along the track and across it.
 struct Motion {
     along: f64,
@@ -280,17 +267,17 @@ struct Motion {
 }
 
 impl Motion {
-    /// Notes where the hand is now (`connected`: the reading is fresh).
-    fn update(&mut self, track: &Track, p: Vector, connected: bool, alpha: f64, dt: f64) {
-        let (along, offset) = track.split(p);
+    /// Notes where the hand is now (`connected`: the reading is fresh),
+    /// its velocity filtered by `alpha` over `1 / dt` = `per_s`.
+    fn update(&mut self, (along, offset): (f64, Vector), connected: bool, alpha: f64, per_s: f64) {
         if connected {
             if let Some((a0, o0)) = self.previous {
-                self.v = crate::friction::filtered_velocity(alpha, self.v, (along - a0) / dt);
+                self.v = crate::friction::filtered_velocity(alpha, self.v, (along - a0) * per_s);
                 for i in 0..MAX_AXES {
                     self.offset_v[i] = crate::friction::filtered_velocity(
                         alpha,
                         self.offset_v[i],
-                        (offset[i] - o0[i]) / dt,
+                        (offset[i] - o0[i]) * per_s,
                     );
                 }
             }
@@ -303,13 +290,271 @@ impl Motion {
         self.along = along;
         self.offset = offset;
     }
+
+    /// The hand at rest at `at` (a device put there).
+    fn rest(&mut self, at: (f64, Vector)) {
+        self.along = at.0;
+        self.offset = at.1;
+        self.previous = Some(at);
+        self.v = 0.0;
+        self.offset_v = [0.0; MAX_AXES];
+    }
 }
 
-/// The loop body; returns its statistics when `stop` is set.
-#[expect(
-    clippy::too_many_lines,
-    reason = "one tick of the loop reads best in one place"
-)]
+/// One tick of the loop, whatever keeps its time: the loop's thread
+/// ([`HapticLoop`], in real time) or a session stepping a device in its
+/// own time ([`super::stepped::Stepped`]). It reads the device, notes the
+/// hand's motion, takes the session's messages, renders and sends the
+/// force, and reports the tick. No clock, no allocation: time comes in as
+/// arguments.
+pub(super) struct LoopCore {
+    step: StepParams,
+    track: Track,
+    /// A device of one axis: that axis is the track, and a position or a
+    /// force along it is the axis's own number (no projection).
+    one_axis: bool,
+    renderer: Renderer<f64>,
+    /// The model selected last, as the session sent it (restarted where
+    /// a device is put, [`LoopCore::place`]).
+    model: Option<ModelParams>,
+    host_render: u32,
+    host_selected: bool,
+    motion: Motion,
+    sink: Option<Offer>,
+    push_n: f64,
+    wall: bool,
+    non_finite: u64,
+    last_s: f64,
+    /// `dt` the velocity filter was computed for, its coefficient, `1 / dt`.
+    filter: (f64, f64, f64),
+    /// The device's own limit and the limit in force, N.
+    device_limit_n: f64,
+    in_force: f64,
+}
+
+impl LoopCore {
+    /// Rendering nothing on `device`, stepped by `step` (force limit,
+    /// velocity filter), crossfading over `ramp_s` after a model change.
+    pub(super) fn new(device: &dyn Backend, step: StepParams, ramp_s: f64) -> Self {
+        let caps = device.capabilities();
+        let mut core = LoopCore {
+            step,
+            track: device.track(),
+            one_axis: caps.axes == 1,
+            renderer: Renderer::new(step.force_limit, ramp_s),
+            model: None,
+            host_render: 0,
+            host_selected: false,
+            motion: Motion {
+                along: 0.0,
+                v: 0.0,
+                offset: [0.0; MAX_AXES],
+                offset_v: [0.0; MAX_AXES],
+                previous: None,
+            },
+            sink: None,
+            push_n: 0.0,
+            wall: true,
+            non_finite: 0,
+            last_s: 0.0,
+            filter: (f64::NAN, 0.0, 0.0),
+            device_limit_n: caps.force_limit_n,
+            in_force: step.force_limit.newtons(),
+        };
+        core.limit(caps.force_limit_n);
+        core
+    }
+
+    /// The force limit in force, N: the smaller of the loop's (the
+    /// model's clamp) and the device's, which a device may state only
+    /// once connected (before any model of a session is selected: a
+    /// session starts at a connected tick).
+    fn limit(&mut self, device_limit_n: f64) {
+        self.device_limit_n = device_limit_n;
+        let in_force = device_limit_n.min(self.step.force_limit.newtons());
+        if in_force != self.renderer.limit().newtons()
+            && let Ok(limit) = ForceLimit::new(in_force)
+        {
+            self.renderer.set_limit(limit);
+        }
+        self.in_force = in_force;
+    }
+
+    /// The force limit the models render within now, N.
+    pub(super) fn limit_n(&self) -> f64 {
+        self.renderer.limit().newtons()
+    }
+
+    /// A position on the device, along the track and across it.
+    fn split(&self, p: Vector) -> (f64, Vector) {
+        if self.one_axis {
+            (p[0], [0.0; MAX_AXES])
+        } else {
+            self.track.split(p)
+        }
+    }
+
+    /// Reads the device at `now` s, `dt` s after the last tick, and notes
+    /// the hand's motion and the device's limit.
+    pub(super) fn read(&mut self, device: &mut dyn Backend, now: f64, dt: f64) -> Reading {
+        let reading = device.read(now);
+        let connected = reading.link == LinkState::Connected;
+        if self.filter.0 != dt {
+            self.filter = (dt, self.step.velocity_alpha(dt), 1.0 / dt);
+        }
+        let at = self.split(reading.position_m);
+        self.motion
+            .update(at, connected, self.filter.1, self.filter.2);
+        self.limit(device.capabilities().force_limit_n);
+        reading
+    }
+
+    /// Takes a message from the session at `now` s.
+    pub(super) fn handle(&mut self, device: &mut dyn Backend, now: f64, message: ToLoop) {
+        match message {
+            ToLoop::Model { render, model } => {
+                let on_board_renders = device
+                    .on_board()
+                    .is_some_and(|b| b.select(now, render, model.as_ref()));
+                let host_model = model.as_ref().filter(|_| !on_board_renders);
+                self.renderer.select(host_model, self.motion.along);
+                self.model = host_model.cloned();
+                self.host_render = render;
+                self.host_selected = true;
+            }
+            ToLoop::Hand(drive) => device.drive_hand(&drive),
+            ToLoop::Offer(offer) => self.sink = Some(offer),
+            ToLoop::Confirm => device.confirm(now),
+            ToLoop::Push(f) => self.push_n = if f.is_finite() { f } else { 0.0 },
+            ToLoop::Wall(on) => self.wall = on,
+        }
+    }
+
+    /// The device was put at rest where it reads at `now` s (a simulated
+    /// apparatus the hand repositions between trials): the hand is at rest
+    /// there, and the model selected last restarts there as the session's
+    /// render `render`.
+    pub(super) fn place(&mut self, device: &mut dyn Backend, now: f64, render: u32) {
+        let at = self.split(device.read(now).position_m);
+        self.motion.rest(at);
+        self.renderer.select(self.model.as_ref(), at.0);
+        self.host_render = render;
+        self.host_selected = true;
+    }
+
+    /// Hands a tick to `out` and, when a sink asked, to it (a connected
+    /// tick only). Ticks' times never go back.
+    fn emit(sink: Option<&Offer>, last_s: &mut f64, out: &mut dyn FnMut(Tick), mut tick: Tick) {
+        tick.now_s = tick.now_s.max(*last_s);
+        *last_s = tick.now_s;
+        if let Some(sink) = sink
+            && tick.link == LinkState::Connected
+        {
+            sink.0.offer(&tick);
+        }
+        out(tick);
+    }
+
+    /// Renders this tick of `dt` s at `now` s on what `reading` says: the
+    /// device's own ticks while it renders on board, else the loop's
+    /// force, sent; each tick reported to `out`.
+    pub(super) fn render(
+        &mut self,
+        device: &mut dyn Backend,
+        now: f64,
+        dt: f64,
+        reading: &Reading,
+        out: &mut dyn FnMut(Tick),
+    ) {
+        let (sink, last_s) = (self.sink.as_ref(), &mut self.last_s);
+        if let Some(board) = device.on_board()
+            && board.ticks(now, reading, &mut |tick| {
+                Self::emit(sink, last_s, out, tick);
+            })
+        {
+            return;
+        }
+        let tick = self.host_tick(device, now, dt, reading);
+        Self::emit(self.sink.as_ref(), &mut self.last_s, out, tick);
+    }
+
+    /// Renders this tick of `dt` s at `now` s on the host, on what
+    /// `reading` says, and sends the force: the tick.
+    pub(super) fn host_tick(
+        &mut self,
+        device: &mut dyn Backend,
+        now: f64,
+        dt: f64,
+        reading: &Reading,
+    ) -> Tick {
+        let connected = reading.link == LinkState::Connected;
+        let motion = &self.motion;
+        // Where the device has a vertical axis, a model whose normal force
+        // is the press takes the hand's press into the surface (below it:
+        // the offset's vertical part is negative).
+        let normal_n = device
+            .capabilities()
+            .vertical_axis
+            .and_then(|axis| self.renderer.press(-motion.offset[axis]));
+        let out_model = self.renderer.step(
+            dt,
+            Input {
+                x_m: motion.along,
+                v_m_s: motion.v,
+            },
+        );
+        let finite = out_model.force_n.is_finite() && out_model.vibration.is_finite();
+        if !finite {
+            self.non_finite += 1;
+        }
+        let push_n = self.push_n;
+        let (along_n, vibration) = match (connected, finite) {
+            (true, true) => (out_model.force_n + push_n, out_model.vibration),
+            (true, false) => (push_n, 0.0),
+            (false, _) => (0.0, 0.0),
+        };
+        let in_force = self.in_force;
+        let force = if !connected {
+            [0.0; MAX_AXES]
+        } else if self.one_axis {
+            [along_n.clamp(-in_force, in_force), 0.0, 0.0]
+        } else if self.wall {
+            self.track
+                .force(along_n, motion.offset, motion.offset_v, in_force)
+        } else {
+            self.track
+                .force(along_n, [0.0; MAX_AXES], [0.0; MAX_AXES], in_force)
+        };
+        device.send_force(now, force, vibration);
+        Tick {
+            button: reading.button,
+            link: reading.link,
+            render: self.host_render,
+            selected: std::mem::take(&mut self.host_selected),
+            watchdog: reading.watchdog,
+            position_m: reading.position_m,
+            force_vector_n: force,
+            off_track_m: super::track::norm(motion.offset),
+            normal_n,
+            problem: reading.problem,
+            non_finite: !finite,
+            mode: Mode::Host {
+                limit_n: self.renderer.limit().newtons(),
+            },
+            device_limit_n: self.device_limit_n,
+            request: device.request(),
+            ..Tick::on_axis(now, motion.along, motion.v, along_n, vibration)
+        }
+    }
+
+    /// Ticks whose model computed a force that was not a finite number.
+    pub(super) fn non_finite(&self) -> u64 {
+        self.non_finite
+    }
+}
+
+/// The loop's thread: a [`LoopCore`] tick at each deadline; returns its
+/// statistics when `stop` is set.
 fn run(
     mut device: Box<dyn Backend>,
     step: StepParams,
@@ -322,26 +567,12 @@ fn run(
     let rate_hz = step.rate_hz;
     let period = Duration::from_secs_f64(step.dt());
     let dt = period.as_secs_f64();
-    let alpha = step.velocity_alpha(dt);
-    let track = device.track();
     let mut histogram = vec![0_u32; BINS + 1];
     let mut periods = vec![0_u32; BINS + 1];
     let mut last_woke: Option<Instant> = None;
     let (mut ticks, mut missed, mut max_late) = (0_u64, 0_u64, 0.0_f64);
-    let (mut non_finite, mut last_s) = (0_u64, 0.0_f64);
-    let mut renderer = Renderer::<f64>::new(step.force_limit, RAMP_S);
-    let mut host_render = 0_u32;
-    let mut host_selected = false;
-    let mut motion = Motion {
-        along: 0.0,
-        v: 0.0,
-        offset: [0.0; MAX_AXES],
-        offset_v: [0.0; MAX_AXES],
-        previous: None,
-    };
+    let mut core = LoopCore::new(device.as_ref(), step, RAMP_S);
     let mut deadline = Instant::now() + period;
-    let mut sink: Option<Offer> = None;
-    let (mut push_n, mut wall) = (0.0_f64, true);
     while !stop.load(Ordering::Relaxed) {
         spin_sleep::sleep_until(deadline);
         let woke = Instant::now();
@@ -372,108 +603,16 @@ fn run(
         }
         ticks += 1;
         let now = woke.duration_since(start).as_secs_f64();
-
-        // Device -> host.
-        let reading = device.read(now);
-        let connected = reading.link == LinkState::Connected;
-        motion.update(&track, reading.position_m, connected, alpha, dt);
-
-        // The limit in force: the smaller of the loop's and the device's,
-        // which a device may state only once connected (before any model
-        // of a session is selected: a session starts at a connected tick).
-        let device_limit_n = device.capabilities().force_limit_n;
-        let in_force = device_limit_n.min(step.force_limit.newtons());
-        if in_force != renderer.limit().newtons()
-            && let Ok(limit) = ForceLimit::new(in_force)
-        {
-            renderer.set_limit(limit);
-        }
-
-        // Session -> loop.
+        // Device -> host; session -> loop; the force -> device.
+        let reading = core.read(device.as_mut(), now, dt);
         while let Ok(m) = inbox.pop() {
-            match m {
-                ToLoop::Model { render, model } => {
-                    let on_board_renders = device
-                        .on_board()
-                        .is_some_and(|b| b.select(now, render, model.as_ref()));
-                    let host_model = model.as_ref().filter(|_| !on_board_renders);
-                    renderer.select(host_model, motion.along);
-                    host_render = render;
-                    host_selected = true;
-                }
-                ToLoop::Hand(drive) => device.drive_hand(&drive),
-                ToLoop::Offer(offer) => sink = Some(offer),
-                ToLoop::Confirm => device.confirm(now),
-                ToLoop::Push(f) => push_n = if f.is_finite() { f } else { 0.0 },
-                ToLoop::Wall(on) => wall = on,
-            }
+            core.handle(device.as_mut(), now, m);
         }
-
-        if let Some(board) = device.on_board()
-            && board.ticks(now, &reading, &mut |tick| {
-                emit(outbox, sink.as_ref(), &mut last_s, tick);
-            })
-        {
-            continue;
-        }
-
-        // Render on the host, crossfading after a model change; where the
-        // device has a vertical axis, a model whose normal force is the
-        // press takes the hand's press into the surface (below it: the
-        // offset's vertical part is negative).
-        let normal_n = device
-            .capabilities()
-            .vertical_axis
-            .and_then(|axis| renderer.press(-motion.offset[axis]));
-        let out = renderer.step(
-            dt,
-            Input {
-                x_m: motion.along,
-                v_m_s: motion.v,
-            },
-        );
-        let finite = out.force_n.is_finite() && out.vibration.is_finite();
-        if !finite {
-            non_finite += 1;
-        }
-        let (along_n, vibration) = match (connected, finite) {
-            (true, true) => (out.force_n + push_n, out.vibration),
-            (true, false) => (push_n, 0.0),
-            (false, _) => (0.0, 0.0),
-        };
-        let force = if connected && wall {
-            track.force(along_n, motion.offset, motion.offset_v, in_force)
-        } else if connected {
-            track.force(along_n, [0.0; MAX_AXES], [0.0; MAX_AXES], in_force)
-        } else {
-            [0.0; MAX_AXES]
-        };
-        device.send_force(now, force, vibration);
-        emit(
-            outbox,
-            sink.as_ref(),
-            &mut last_s,
-            Tick {
-                button: reading.button,
-                link: reading.link,
-                render: host_render,
-                selected: std::mem::take(&mut host_selected),
-                watchdog: reading.watchdog,
-                position_m: reading.position_m,
-                force_vector_n: force,
-                off_track_m: super::track::norm(motion.offset),
-                normal_n,
-                problem: reading.problem,
-                non_finite: !finite,
-                mode: Mode::Host {
-                    limit_n: renderer.limit().newtons(),
-                },
-                device_limit_n,
-                request: device.request(),
-                ..Tick::on_axis(now, motion.along, motion.v, along_n, vibration)
-            },
-        );
+        core.render(device.as_mut(), now, dt, &reading, &mut |tick| {
+            let _ = outbox.push(tick);
+        });
     }
+    let non_finite = core.non_finite();
     device.close();
     let quantile = |histogram: &[u32], q: f64| {
         let ticks: u64 = histogram.iter().map(|&c| u64::from(c)).sum();

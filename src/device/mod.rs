@@ -18,6 +18,7 @@ pub mod miswiring;
 pub mod pty;
 pub mod realtime;
 pub mod sim;
+pub mod stepped;
 pub mod track;
 pub mod transport;
 

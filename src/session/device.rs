@@ -1,13 +1,15 @@
-//! The one device abstraction a session drives: the simulated apparatus,
-//! stepped by the session in session time, or the haptic loop on a serial
-//! port, whose ticks the session reads.
+//! The one device abstraction a session drives: a backend behind the
+//! device seam, rendered by the haptic loop's core, whose time is either
+//! the session's (a [`Virtual`](crate::device::backend::Virtual) device,
+//! the simulated apparatus, stepped tick by tick) or the clock's (the loop's
+//! thread on a port, whose ticks the session reads).
 
 use std::collections::VecDeque;
 
 use crate::device::LinkState;
 use crate::device::backend::DeviceLimits;
 use crate::device::haptic::{HapticLoop, LoopStats, Mode, Tick, ToLoop};
-use crate::device::sim::SimDevice;
+use crate::device::stepped::Stepped;
 use crate::friction::ModelParams;
 use crate::hand::HandDrive;
 use crate::time::Time;
@@ -182,15 +184,11 @@ impl Port {
 
 /// Where a session renders friction.
 pub(super) enum Device {
-    /// The simulated apparatus, stepped at `dt` (the period of the
-    /// rendered model's rate, whole nanoseconds), rendering the session's
-    /// render number `render`.
-    Sim {
-        device: Box<SimDevice>,
-        dt: Time,
-        render: u32,
-    },
-    /// The haptic loop on a serial port.
+    /// A device in session time (the simulated apparatus), its loop
+    /// stepped by the session at `dt` (the period of the rendered model's
+    /// rate, whole nanoseconds).
+    Stepped { device: Box<Stepped>, dt: Time },
+    /// The haptic loop's thread on a port.
     Port(Box<Port>),
     /// The haptic loop has stopped (session finished or aborted).
     Stopped { rate_hz: f64 },
@@ -209,10 +207,11 @@ impl Device {
         Ok(match choice {
             super::DeviceChoice::Simulated => {
                 let step = StepParams::default();
-                Device::Sim {
-                    device: Box::new(SimDevice::new(Apparatus::default(), hand_mass_kg, step)),
+                let apparatus =
+                    crate::device::sim::Simulated::new(Apparatus::default(), hand_mass_kg);
+                Device::Stepped {
+                    device: Box::new(Stepped::new(Box::new(apparatus), step)),
                     dt: Time::period(step.rate_hz),
-                    render: 0,
                 }
             }
             super::DeviceChoice::Device(address) => {
@@ -241,16 +240,11 @@ impl Device {
     }
 
     /// Renders `model` from now on (`None`: nothing), as the session's
-    /// render number `render`.
-    pub(super) fn render(&mut self, render: u32, model: Option<&ModelParams>) {
+    /// render number `render`, at session time `now`.
+    pub(super) fn render(&mut self, now: Time, render: u32, model: Option<&ModelParams>) {
         match self {
-            Device::Sim {
-                device,
-                dt,
-                render: current,
-            } => {
-                device.set_model(model);
-                *current = render;
+            Device::Stepped { device, dt } => {
+                device.select(now.secs(), render, model);
                 if let Some(m) = model {
                     *dt = Time::period(m.loop_rate_hz());
                 }
@@ -263,44 +257,66 @@ impl Device {
         }
     }
 
-    /// How the simulated device steps its model now (its rows' `How`);
-    /// None for a port, whose ticks say how each was stepped.
+    /// How a device in session time steps its model now (its rows'
+    /// `How`); None for a port, whose ticks say how each was stepped.
     pub(super) fn sim_how(&self) -> Option<super::renders::How> {
         match self {
-            Device::Sim { device, dt, .. } => Some(super::renders::How {
+            Device::Stepped { device, dt } => Some(super::renders::How {
                 mode: crate::results::RenderMode::Simulated,
                 float: crate::friction::Float::F64,
                 rate_hz: 1.0 / dt.secs(),
-                ramp_s: 0.0,
-                force_limit_n: device.force_limit_n(),
+                ramp_s: crate::device::stepped::STEPPED_RAMP_S,
+                force_limit_n: device.limit_n(),
             }),
             _ => None,
         }
     }
 
-    /// What the simulated apparatus states of its force and reach (None
+    /// What a device in session time states of its force and reach (None
     /// for a port, whose ticks say).
     pub(super) fn sim_limits(&self) -> Option<DeviceLimits> {
         match self {
-            Device::Sim { device, .. } => Some(DeviceLimits {
-                force_limit_n: device.apparatus().max_force_n,
-                travel_m: device.apparatus().travel_m(),
-            }),
+            Device::Stepped { device, .. } => {
+                let caps = device.capabilities();
+                Some(DeviceLimits {
+                    force_limit_n: caps.force_limit_n,
+                    travel_m: caps.travel_m,
+                })
+            }
             _ => None,
         }
     }
 
-    /// The physical friction of a condition (the simulated apparatus only:
-    /// on a real device it is really there).
+    /// The physical friction of a condition (a device in session time
+    /// only, the simulated apparatus: on a real device it is really there).
     pub(super) fn set_physical(&mut self, model: Option<&ModelParams>) {
-        if let Device::Sim { device, .. } = self {
+        if let Device::Stepped { device, .. } = self {
             device.set_physical(model);
         }
     }
 
-    /// Whether this is the simulated device.
-    /// The instant a port's ticks count time from (none for the simulated
-    /// device, whose time is the session's).
+    /// One tick of a device in session time at `now`, the hand pushing
+    /// with `hand_force_n` over it: the tick and its length (None for a
+    /// port, whose ticks come from its loop).
+    pub(super) fn step(&mut self, now: Time, hand_force_n: f64) -> Option<(Tick, Time)> {
+        match self {
+            Device::Stepped { device, dt } => {
+                Some((device.tick(now.secs(), dt.secs(), hand_force_n), *dt))
+            }
+            _ => None,
+        }
+    }
+
+    /// A device in session time's tick length (None for a port).
+    pub(super) fn stepped_dt(&self) -> Option<Time> {
+        match self {
+            Device::Stepped { dt, .. } => Some(*dt),
+            _ => None,
+        }
+    }
+
+    /// The instant a port's ticks count time from (none for a device in
+    /// session time).
     pub(super) fn origin(&self) -> Option<std::time::Instant> {
         match self {
             Device::Port(port) => Some(port.origin()),
@@ -308,22 +324,17 @@ impl Device {
         }
     }
 
+    /// Whether the device is in session time (the simulated apparatus).
     pub(super) fn is_sim(&self) -> bool {
-        matches!(self, Device::Sim { .. })
+        matches!(self, Device::Stepped { .. })
     }
 
-    /// Puts the simulated device at rest at `x_m`, its model restarted
-    /// there as render number `render`; false on a real device, where the
-    /// hand moves there itself.
-    pub(super) fn reset(&mut self, x_m: f64, render: u32) -> bool {
-        if let Device::Sim {
-            device,
-            render: current,
-            ..
-        } = self
-        {
-            device.reset(x_m);
-            *current = render;
+    /// Puts a device in session time at rest at `x_m` at session time
+    /// `now`, its model restarted there as render number `render`; false
+    /// on a real device, where the hand moves there itself.
+    pub(super) fn reset(&mut self, now: Time, x_m: f64, render: u32) -> bool {
+        if let Device::Stepped { device, .. } = self {
+            device.place(now.secs(), x_m, render);
             true
         } else {
             false
@@ -333,7 +344,7 @@ impl Device {
     /// The stretch of the track the device reaches, m from its origin.
     pub(super) fn travel_m(&self) -> [f64; 2] {
         match self {
-            Device::Sim { device, .. } => device.apparatus().travel_m(),
+            Device::Stepped { device, .. } => device.capabilities().travel_m,
             Device::Port(port) => port.travel_m,
             Device::Stopped { .. } => [0.0; 2],
         }
@@ -358,7 +369,7 @@ impl Device {
     /// Whether the device answers.
     pub(super) fn connected(&self) -> bool {
         match self {
-            Device::Sim { .. } => true,
+            Device::Stepped { .. } => true,
             Device::Port(port) => port.link == LinkState::Connected,
             Device::Stopped { .. } => false,
         }
@@ -380,7 +391,7 @@ impl Device {
     /// Connected, rate and period p99.
     pub(super) fn status(&self) -> (bool, f64, Option<f64>) {
         let (rate_hz, p99) = match self {
-            Device::Sim { dt, .. } => (1.0 / dt.secs(), None),
+            Device::Stepped { dt, .. } => (1.0 / dt.secs(), None),
             Device::Stopped { rate_hz } => (*rate_hz, None),
             Device::Port(port) => (port.rate_hz, percentile(&port.periods, 0.99)),
         };

@@ -51,12 +51,13 @@ impl Feel {
     ) -> Result<Self, SessionError> {
         let person = Person::default();
         let mut device = Device::open(choice, model.loop_rate_hz(), person.hand_mass_kg())?;
-        device.render(FEEL_RENDER, Some(model));
+        let t = Time::from_secs_saturating(now_s);
+        device.render(t, FEEL_RENDER, Some(model));
         Ok(Feel {
             device,
             person,
             sample: DeviceSample::default(),
-            t: Time::from_secs_saturating(now_s),
+            t,
             model: model.clone(),
         })
     }
@@ -85,13 +86,16 @@ impl Feel {
     pub fn advance(&mut self, now_s: f64, target: Option<f64>) {
         self.person.set_hand_target(target);
         match &mut self.device {
-            Device::Sim { device, dt, .. } => {
+            Device::Stepped { dt, .. } => {
                 let dt = *dt;
                 let now = Time::from_secs_saturating(now_s);
                 self.t = self.t.max(now - Time::from_secs_saturating(MOST_BEHIND_S));
                 while self.t + dt <= now {
                     let force = self.person.hand_force(self.t, dt.secs(), &self.sample);
-                    self.sample = device.step(dt.secs(), force);
+                    let Some((tick, dt)) = self.device.step(self.t, force) else {
+                        break;
+                    };
+                    self.sample = tick.sample();
                     self.t += dt;
                 }
             }
@@ -114,7 +118,7 @@ impl Feel {
 
 impl Drop for Feel {
     fn drop(&mut self) {
-        self.device.render(FEEL_RENDER + 1, None);
+        self.device.render(self.t, FEEL_RENDER + 1, None);
         let _ = self.device.stop();
     }
 }

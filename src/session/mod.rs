@@ -402,7 +402,6 @@ pub struct Session<R: Responder> {
     device_problem: Option<&'static str>,
     /// Since when the hand has been on the track, waiting to start.
     on_track_since: Option<Time>,
-    sim_selected: bool,
     /// What happened and no shell has polled yet (`None`: nobody asked,
     /// [`Session::with_events`]).
     events: Option<VecDeque<Event>>,
@@ -630,7 +629,6 @@ impl<R: Responder> Session<R> {
             off_track_m: None,
             on_track_since: None,
             device_problem: None,
-            sim_selected: false,
             row_render: (0, how),
             events: None,
             gate: Gate::Open,
@@ -704,7 +702,7 @@ impl<R: Responder> Session<R> {
     #[must_use]
     pub fn poll_timeout(&self) -> Option<Time> {
         match &self.device {
-            Device::Sim { dt, .. } if self.state == SessionState::Running => Some(self.t + *dt),
+            Device::Stepped { dt, .. } if self.state == SessionState::Running => Some(self.t + *dt),
             _ => self.engine_deadline,
         }
     }
@@ -895,21 +893,23 @@ impl<R: Responder> Session<R> {
     }
 
     fn tick_sim(&mut self) {
-        let Device::Sim { device, dt, render } = &mut self.device else {
+        let Some(dt) = self.device.stepped_dt() else {
             return;
         };
-        let dt = *dt;
         let force = self.responder.hand_force(self.t, dt.secs(), &self.sample);
-        self.sample = device.step(dt.secs(), force);
+        let Some((tick, dt)) = self.device.step(self.t, force) else {
+            return;
+        };
+        self.sample = tick.sample();
         self.row_marks = RowMarks {
-            selected: std::mem::take(&mut self.sim_selected),
+            selected: tick.selected,
             watchdog: false,
             device_tick: None,
             axes: None,
         };
-        // How the simulated device steps changes only with its model
+        // How the stepped device steps changes only with its model
         // (`Session::render`).
-        self.row_render.0 = *render;
+        self.row_render.0 = tick.render;
         self.t += dt;
         if self.gate != Gate::Open {
             let (t, sample) = (self.t, self.sample);
@@ -1053,7 +1053,7 @@ impl<R: Responder> Session<R> {
         loop {
             self.settle()?;
             match &self.device {
-                Device::Sim { dt, .. }
+                Device::Stepped { dt, .. }
                     if self.state == SessionState::Running && *dt <= self.owed =>
                 {
                     self.owed = self.owed - *dt;
@@ -1204,8 +1204,7 @@ impl<R: Responder> Session<R> {
             && self.device.is_sim()
         {
             let render = self.renders.send(self.renders.last_model());
-            self.device.reset(x_m, render);
-            self.sim_selected = true;
+            self.device.reset(self.t, x_m, render);
             self.sample = DeviceSample {
                 x_m,
                 ..DeviceSample::default()
@@ -1429,11 +1428,10 @@ impl<R: Responder> Session<R> {
     /// Renders `model` from now on, numbered (see [`renders`]).
     fn render(&mut self, model: Option<&ModelParams>) -> u32 {
         let render = self.renders.send(model.cloned());
-        self.device.render(render, model);
+        self.device.render(self.t, render, model);
         if matches!(self.device, Device::Port(_)) {
             self.render_due = Some((render, self.t));
         }
-        self.sim_selected = self.device.is_sim();
         if let Some(how) = self.device.sim_how() {
             self.row_render.1 = how;
         }

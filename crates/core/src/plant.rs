@@ -4,7 +4,8 @@
 //! # Model (SI units; positive x = device positive direction)
 //! - Moving mass: the apparatus's 0.692 kg plus the hand's mass.
 //! - Forces: the hand's force (from the participant's motor model), the
-//!   rendered friction (the friction core, clamped to 9.48 N, the maximum
+//!   motor's (the rendered friction, computed by the caller: the host's
+//!   loop, the emulator's or the firmware's, within 9.48 N, the maximum
 //!   continuous force), the physical friction of a condition (e.g. an
 //!   aluminum block on rubber, not rendered: part of the apparatus),
 //!   end stops at +-1.6 cm (range 3.2 cm; a 2e4 N/m, 50 N s/m wall), and the
@@ -103,8 +104,6 @@ pub struct SimDevice {
     stuck: bool,
     x_measured: f64,
     v_estimate: f64,
-    rendered: Option<Friction>,
-    rendered_params: Option<ModelParams>,
     physical: Option<Friction>,
     physical_params: Option<ModelParams>,
     /// `dt` for which the filter was computed, the velocity filter's
@@ -118,26 +117,20 @@ pub struct SimDevice {
 
 impl SimDevice {
     /// The apparatus at rest at 0 with a hand of `hand_mass_kg` on it,
-    /// rendering within `step`'s force limit (at most the apparatus's
-    /// maximum continuous force) and estimating velocity with its filter.
-    /// The rate is each step's `dt`.
+    /// estimating velocity with `step`'s filter (its sensing for a device
+    /// that renders itself: [`SimDevice::step_with`]). The rate is each
+    /// step's `dt`. It renders no model: the motor's force is the caller's.
     #[must_use]
     pub fn new(p: Apparatus, hand_mass_kg: f64, step: StepParams) -> Self {
-        let limit = step.force_limit.newtons().min(p.max_force_n);
         let mass_kg = p.mass_kg + hand_mass_kg.max(0.0);
         SimDevice {
             p,
-            step: StepParams {
-                force_limit: ForceLimit::new(limit).unwrap_or_default(),
-                ..step
-            },
+            step,
             x: 0.0,
             v: 0.0,
             stuck: true,
             x_measured: 0.0,
             v_estimate: 0.0,
-            rendered: None,
-            rendered_params: None,
             physical: None,
             physical_params: None,
             filter: (0.0, 0.0, 0.0),
@@ -147,25 +140,15 @@ impl SimDevice {
     }
 
     /// Puts the device at rest at `x_m` (the hand repositions between
-    /// trials); models restart there.
+    /// trials); its physical friction restarts there.
     pub fn reset(&mut self, x_m: f64) {
         self.x = x_m;
         self.v = 0.0;
         self.stuck = true;
         self.x_measured = self.quantize(x_m);
         self.v_estimate = 0.0;
-        let params = self.rendered_params.take();
-        self.set_model(params.as_ref());
         let physical = self.physical_params.take();
         self.set_physical(physical.as_ref());
-    }
-
-    /// Renders `model` from now on (`None`: nothing). An invalid model renders
-    /// nothing (protocols are checked before they reach a device).
-    pub fn set_model(&mut self, model: Option<&ModelParams>) {
-        self.rendered_params = model.cloned();
-        self.rendered =
-            model.and_then(|m| Friction::new(m, self.step.force_limit, self.x_measured).ok());
     }
 
     /// The physical friction of a condition from now on (`None`: none).
@@ -181,12 +164,6 @@ impl SimDevice {
         &self.p
     }
 
-    /// The force limit of the rendered models, N.
-    #[must_use]
-    pub fn force_limit_n(&self) -> f64 {
-        self.step.force_limit.newtons()
-    }
-
     /// True position, m (for tests; a real device only gives the measured one).
     #[must_use]
     pub fn true_position_m(&self) -> f64 {
@@ -197,25 +174,11 @@ impl SimDevice {
         round(x * self.inv_encoder) * self.p.encoder_m
     }
 
-    /// Advances by `dt` with the hand pushing with `hand_force_n`; the
-    /// rendered force comes from the model set by [`SimDevice::set_model`].
+    /// The position the encoder reads now, m.
     #[inline]
-    pub fn step(&mut self, dt: f64, hand_force_n: f64) -> DeviceSample {
-        let sensed = self.sense(dt);
-        let (rendered, vibration) = match self.rendered.as_mut() {
-            Some(f) => {
-                let o = f.step(dt, sensed);
-                (o.force_n, o.vibration)
-            }
-            None => (0.0, 0.0),
-        };
-        self.advance(dt, hand_force_n, rendered);
-        DeviceSample {
-            x_m: sensed.x_m,
-            v_m_s: sensed.v_m_s,
-            force_n: rendered,
-            vibration,
-        }
+    #[must_use]
+    pub fn measured_m(&self) -> f64 {
+        self.quantize(self.x)
     }
 
     /// Advances by `dt` with the hand pushing with `hand_force_n` and the
@@ -262,10 +225,11 @@ impl SimDevice {
         }
     }
 
-    /// Moves the device under the hand, the motor force, the physical
-    /// friction, the end stops and the apparatus's own friction.
+    /// Moves the device by `dt` under the hand's force, the motor's, the
+    /// physical friction, the end stops and the apparatus's own friction
+    /// (a device whose host senses it: [`SimDevice::measured_m`]).
     #[inline]
-    fn advance(&mut self, dt: f64, hand_force_n: f64, motor_n: f64) {
+    pub fn advance(&mut self, dt: f64, hand_force_n: f64, motor_n: f64) {
         let physical = self.physical.as_mut().map_or(0.0, |f| {
             f.step(
                 dt,
