@@ -269,16 +269,25 @@ struct Motion {
 impl Motion {
     /// Notes where the hand is now (`connected`: the reading is fresh),
     /// its velocity filtered by `alpha` over `1 / dt` = `per_s`.
-    fn update(&mut self, (along, offset): (f64, Vector), connected: bool, alpha: f64, per_s: f64) {
+    fn update(
+        &mut self,
+        (along, offset): (f64, Vector),
+        connected: bool,
+        one_axis: bool,
+        (alpha, per_s): (f64, f64),
+    ) {
         if connected {
             if let Some((a0, o0)) = self.previous {
                 self.v = crate::friction::filtered_velocity(alpha, self.v, (along - a0) * per_s);
-                for i in 0..MAX_AXES {
-                    self.offset_v[i] = crate::friction::filtered_velocity(
-                        alpha,
-                        self.offset_v[i],
-                        (offset[i] - o0[i]) * per_s,
-                    );
+                // On one axis the hand is never off the track.
+                if !one_axis {
+                    for i in 0..MAX_AXES {
+                        self.offset_v[i] = crate::friction::filtered_velocity(
+                            alpha,
+                            self.offset_v[i],
+                            (offset[i] - o0[i]) * per_s,
+                        );
+                    }
                 }
             }
             self.previous = Some((along, offset));
@@ -327,6 +336,8 @@ pub(super) struct LoopCore {
     last_s: f64,
     /// `dt` the velocity filter was computed for, its coefficient, `1 / dt`.
     filter: (f64, f64, f64),
+    /// The device's vertical axis, as it stated it at the last read.
+    vertical_axis: Option<usize>,
     /// The device's own limit and the limit in force, N.
     device_limit_n: f64,
     in_force: f64,
@@ -335,7 +346,7 @@ pub(super) struct LoopCore {
 impl LoopCore {
     /// Rendering nothing on `device`, stepped by `step` (force limit,
     /// velocity filter), crossfading over `ramp_s` after a model change.
-    pub(super) fn new(device: &dyn Backend, step: StepParams, ramp_s: f64) -> Self {
+    pub(super) fn new(device: &(impl Backend + ?Sized), step: StepParams, ramp_s: f64) -> Self {
         let caps = device.capabilities();
         let mut core = LoopCore {
             step,
@@ -358,6 +369,7 @@ impl LoopCore {
             non_finite: 0,
             last_s: 0.0,
             filter: (f64::NAN, 0.0, 0.0),
+            vertical_axis: caps.vertical_axis,
             device_limit_n: caps.force_limit_n,
             in_force: step.force_limit.newtons(),
         };
@@ -396,21 +408,33 @@ impl LoopCore {
 
     /// Reads the device at `now` s, `dt` s after the last tick, and notes
     /// the hand's motion and the device's limit.
-    pub(super) fn read(&mut self, device: &mut dyn Backend, now: f64, dt: f64) -> Reading {
+    pub(super) fn read(
+        &mut self,
+        device: &mut (impl Backend + ?Sized),
+        now: f64,
+        dt: f64,
+    ) -> Reading {
         let reading = device.read(now);
         let connected = reading.link == LinkState::Connected;
         if self.filter.0 != dt {
             self.filter = (dt, self.step.velocity_alpha(dt), 1.0 / dt);
         }
         let at = self.split(reading.position_m);
-        self.motion
-            .update(at, connected, self.filter.1, self.filter.2);
-        self.limit(device.capabilities().force_limit_n);
+        let filter = (self.filter.1, self.filter.2);
+        self.motion.update(at, connected, self.one_axis, filter);
+        let caps = device.capabilities();
+        self.vertical_axis = caps.vertical_axis;
+        self.limit(caps.force_limit_n);
         reading
     }
 
     /// Takes a message from the session at `now` s.
-    pub(super) fn handle(&mut self, device: &mut dyn Backend, now: f64, message: ToLoop) {
+    pub(super) fn handle(
+        &mut self,
+        device: &mut (impl Backend + ?Sized),
+        now: f64,
+        message: ToLoop,
+    ) {
         match message {
             ToLoop::Model { render, model } => {
                 let on_board_renders = device
@@ -434,7 +458,7 @@ impl LoopCore {
     /// apparatus the hand repositions between trials): the hand is at rest
     /// there, and the model selected last restarts there as the session's
     /// render `render`.
-    pub(super) fn place(&mut self, device: &mut dyn Backend, now: f64, render: u32) {
+    pub(super) fn place(&mut self, device: &mut (impl Backend + ?Sized), now: f64, render: u32) {
         let at = self.split(device.read(now).position_m);
         self.motion.rest(at);
         self.renderer.select(self.model.as_ref(), at.0);
@@ -460,7 +484,7 @@ impl LoopCore {
     /// force, sent; each tick reported to `out`.
     pub(super) fn render(
         &mut self,
-        device: &mut dyn Backend,
+        device: &mut (impl Backend + ?Sized),
         now: f64,
         dt: f64,
         reading: &Reading,
@@ -482,7 +506,7 @@ impl LoopCore {
     /// `reading` says, and sends the force: the tick.
     pub(super) fn host_tick(
         &mut self,
-        device: &mut dyn Backend,
+        device: &mut (impl Backend + ?Sized),
         now: f64,
         dt: f64,
         reading: &Reading,
@@ -492,8 +516,7 @@ impl LoopCore {
         // Where the device has a vertical axis, a model whose normal force
         // is the press takes the hand's press into the surface (below it:
         // the offset's vertical part is negative).
-        let normal_n = device
-            .capabilities()
+        let normal_n = self
             .vertical_axis
             .and_then(|axis| self.renderer.press(-motion.offset[axis]));
         let out_model = self.renderer.step(
@@ -534,7 +557,11 @@ impl LoopCore {
             watchdog: reading.watchdog,
             position_m: reading.position_m,
             force_vector_n: force,
-            off_track_m: super::track::norm(motion.offset),
+            off_track_m: if self.one_axis {
+                0.0
+            } else {
+                super::track::norm(motion.offset)
+            },
             normal_n,
             problem: reading.problem,
             non_finite: !finite,

@@ -45,6 +45,8 @@ fn at(x_m: f64) -> Reading {
 #[derive(Debug, Clone)]
 pub struct Simulated {
     device: SimDevice,
+    /// Its capabilities, which never change (asked every tick).
+    capabilities: Capabilities,
     force_n: f64,
 }
 
@@ -54,6 +56,7 @@ impl Simulated {
     pub fn new(apparatus: Apparatus, hand_mass_kg: f64) -> Self {
         Simulated {
             device: SimDevice::new(apparatus, hand_mass_kg, StepParams::default()),
+            capabilities: capabilities(&apparatus),
             force_n: 0.0,
         }
     }
@@ -61,7 +64,7 @@ impl Simulated {
 
 impl Backend for Simulated {
     fn capabilities(&self) -> Capabilities {
-        capabilities(self.device.apparatus())
+        self.capabilities
     }
 
     fn read(&mut self, _now_s: f64) -> Reading {

@@ -21,24 +21,25 @@ use crate::friction::{ModelParams, StepParams};
 pub const STEPPED_RAMP_S: f64 = 0.0;
 
 /// A [`Virtual`] device and the loop core that renders on it, stepped by
-/// its owner.
-pub struct Stepped {
-    device: Box<dyn Virtual>,
+/// its owner (the device's type known, so a tick's calls inline: a
+/// simulated session is mostly ticks).
+pub struct Stepped<V: Virtual> {
+    device: V,
     core: LoopCore,
 }
 
-impl std::fmt::Debug for Stepped {
+impl<V: Virtual> std::fmt::Debug for Stepped<V> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Stepped").finish_non_exhaustive()
     }
 }
 
-impl Stepped {
+impl<V: Virtual> Stepped<V> {
     /// Rendering nothing on `device`, within `step`'s force limit and
     /// velocity filter (its rate is each tick's `dt`).
     #[must_use]
-    pub fn new(device: Box<dyn Virtual>, step: StepParams) -> Self {
-        let core = LoopCore::new(device.as_ref(), step, STEPPED_RAMP_S);
+    pub fn new(device: V, step: StepParams) -> Self {
+        let core = LoopCore::new(&device, step, STEPPED_RAMP_S);
         Stepped { device, core }
     }
 
@@ -60,7 +61,7 @@ impl Stepped {
     /// last.
     pub fn select(&mut self, now_s: f64, render: u32, model: Option<&ModelParams>) {
         self.core.handle(
-            self.device.as_mut(),
+            &mut self.device,
             now_s,
             ToLoop::Model {
                 render,
@@ -73,7 +74,7 @@ impl Stepped {
     /// there as render `render`.
     pub fn place(&mut self, now_s: f64, x_m: f64, render: u32) {
         self.device.place(x_m);
-        self.core.place(self.device.as_mut(), now_s, render);
+        self.core.place(&mut self.device, now_s, render);
     }
 
     /// The physical friction of a condition from now on.
@@ -85,7 +86,7 @@ impl Stepped {
     /// `hand_force_n` N over it: the device read, the force rendered and
     /// sent, then the time passed.
     pub fn tick(&mut self, now_s: f64, dt: f64, hand_force_n: f64) -> Tick {
-        let device = self.device.as_mut();
+        let device = &mut self.device;
         let reading = self.core.read(device, now_s, dt);
         // A device in this process: its models are the loop's to render.
         let tick = self.core.host_tick(device, now_s, dt, &reading);
@@ -102,16 +103,16 @@ mod tests {
 
     /// The simulated apparatus with a 0.4 kg hand, stepped within a force
     /// limit of `limit_n`.
-    fn apparatus(limit_n: f64) -> Stepped {
+    fn apparatus(limit_n: f64) -> Stepped<Simulated> {
         let step = StepParams {
             force_limit: ForceLimit::new(limit_n).unwrap(),
             ..StepParams::default()
         };
-        Stepped::new(Box::new(Simulated::new(Apparatus::default(), 0.4)), step)
+        Stepped::new(Simulated::new(Apparatus::default(), 0.4), step)
     }
 
     /// `ms` ticks of 1 ms from `t0`, the hand pushing `push_n`.
-    fn run(loop_: &mut Stepped, t0: f64, ms: u32, push_n: f64) -> Vec<Tick> {
+    fn run(loop_: &mut Stepped<Simulated>, t0: f64, ms: u32, push_n: f64) -> Vec<Tick> {
         (0..ms)
             .map(|i| loop_.tick(t0 + f64::from(i) * 1e-3, 1e-3, push_n))
             .collect()

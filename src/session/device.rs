@@ -9,6 +9,7 @@ use std::collections::VecDeque;
 use crate::device::LinkState;
 use crate::device::backend::DeviceLimits;
 use crate::device::haptic::{HapticLoop, LoopStats, Mode, Tick, ToLoop};
+use crate::device::sim::Simulated;
 use crate::device::stepped::Stepped;
 use crate::friction::ModelParams;
 use crate::hand::HandDrive;
@@ -187,7 +188,10 @@ pub(super) enum Device {
     /// A device in session time (the simulated apparatus), its loop
     /// stepped by the session at `dt` (the period of the rendered model's
     /// rate, whole nanoseconds).
-    Stepped { device: Box<Stepped>, dt: Time },
+    Stepped {
+        device: Box<Stepped<Simulated>>,
+        dt: Time,
+    },
     /// The haptic loop's thread on a port.
     Port(Box<Port>),
     /// The haptic loop has stopped (session finished or aborted).
@@ -207,10 +211,9 @@ impl Device {
         Ok(match choice {
             super::DeviceChoice::Simulated => {
                 let step = StepParams::default();
-                let apparatus =
-                    crate::device::sim::Simulated::new(Apparatus::default(), hand_mass_kg);
+                let apparatus = Simulated::new(Apparatus::default(), hand_mass_kg);
                 Device::Stepped {
-                    device: Box::new(Stepped::new(Box::new(apparatus), step)),
+                    device: Box::new(Stepped::new(apparatus, step)),
                     dt: Time::period(step.rate_hz),
                 }
             }
