@@ -45,8 +45,6 @@ fn at(x_m: f64) -> Reading {
 #[derive(Debug, Clone)]
 pub struct Simulated {
     device: SimDevice,
-    /// Its capabilities, which never change (asked every tick).
-    capabilities: Capabilities,
     force_n: f64,
 }
 
@@ -56,7 +54,6 @@ impl Simulated {
     pub fn new(apparatus: Apparatus, hand_mass_kg: f64) -> Self {
         Simulated {
             device: SimDevice::new(apparatus, hand_mass_kg, StepParams::default()),
-            capabilities: capabilities(&apparatus),
             force_n: 0.0,
         }
     }
@@ -64,7 +61,7 @@ impl Simulated {
 
 impl Backend for Simulated {
     fn capabilities(&self) -> Capabilities {
-        self.capabilities
+        capabilities(self.device.apparatus())
     }
 
     fn read(&mut self, _now_s: f64) -> Reading {

@@ -299,12 +299,12 @@ impl Device {
     }
 
     /// One tick of a device in session time at `now`, the hand pushing
-    /// with `hand_force_n` over it: the tick and its length (None for a
-    /// port, whose ticks come from its loop).
-    pub(super) fn step(&mut self, now: Time, hand_force_n: f64) -> Option<(Tick, Time)> {
+    /// with `hand_force_n` over it (None for a port, whose ticks come from
+    /// its loop); it lasts [`Device::stepped_dt`].
+    pub(super) fn step(&mut self, now: Time, hand_force_n: f64) -> Option<Tick> {
         match self {
             Device::Stepped { device, dt } => {
-                Some((device.tick(now.secs(), dt.secs(), hand_force_n), *dt))
+                Some(device.tick(now.secs(), dt.secs(), hand_force_n))
             }
             _ => None,
         }

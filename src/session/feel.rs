@@ -92,7 +92,7 @@ impl Feel {
                 self.t = self.t.max(now - Time::from_secs_saturating(MOST_BEHIND_S));
                 while self.t + dt <= now {
                     let force = self.person.hand_force(self.t, dt.secs(), &self.sample);
-                    let Some((tick, dt)) = self.device.step(self.t, force) else {
+                    let Some(tick) = self.device.step(self.t, force) else {
                         break;
                     };
                     self.sample = tick.sample();

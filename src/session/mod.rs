@@ -897,7 +897,7 @@ impl<R: Responder> Session<R> {
             return;
         };
         let force = self.responder.hand_force(self.t, dt.secs(), &self.sample);
-        let Some((tick, dt)) = self.device.step(self.t, force) else {
+        let Some(tick) = self.device.step(self.t, force) else {
             return;
         };
         self.sample = tick.sample();
