@@ -67,6 +67,7 @@ fn generate(dir: &Path, participants: u32) {
             responder: "sim".into(),
             planned_trials: 1000,
             population: None,
+            sound: Vec::new(),
         };
         let trials: Vec<LoggedTrial> = (0..1000_usize)
             .map(|trial| {

@@ -9,6 +9,7 @@
 #![deny(clippy::print_stdout, clippy::print_stderr)]
 
 pub mod analysis;
+pub mod audio;
 pub mod claims;
 pub mod cli;
 pub mod device;

@@ -6,7 +6,8 @@ use std::path::{Path, PathBuf};
 
 use super::{
     DeviceChoice, EXIT_BAD_INPUT, EXIT_FAILURE, Failure, GuiArgs, IdentifyArgs, LslArgs, PowerArgs,
-    RenderArgs, ResponderChoice, RunArgs, SimulateArgs, UserError, device_failure, emit, say,
+    RenderArgs, ResponderChoice, RunArgs, SimulateArgs, SoundArgs, UserError, device_failure, emit,
+    say,
 };
 use crate::device::miswiring::Miswiring;
 use crate::friction::Validate;
@@ -350,6 +351,57 @@ pub(super) fn ports_command() -> Result<(), Failure> {
             settings: crate::device::Settings::default(),
         };
         let _ = writeln!(lines, "{address}\t{}\t{}", f.what, kind.name);
+    }
+    emit(&lines)
+}
+
+/// The masking noise `protocol` asks for, opened on `--masking-audio`
+/// before anything is written: a protocol with masking and no output, an
+/// output and no masking, no sound server or no such output is exit 2, one
+/// line. The noise is seeded by the session's plan seed.
+fn open_masker(
+    file: &Path,
+    protocol: &crate::kinds::Protocol,
+    args: &SoundArgs,
+    seed: u64,
+) -> Result<Option<std::sync::Arc<crate::audio::Masker>>, Failure> {
+    let fail = |place: &str, what: String| Err(Failure::from(vec![UserError::new(place, what)]));
+    match (&protocol.masking, &args.masking_audio) {
+        (None, None) => Ok(None),
+        (Some(m), None) => fail(
+            &format!("{}: masking", file.display()),
+            format!(
+                "the protocol plays {} noise at {} dBFS on headphones; give --masking-audio OUTPUT (`frictionlab audio` lists the outputs)",
+                serde_json::to_value(m.noise)
+                    .map(|v| v.as_str().unwrap_or_default().to_owned())
+                    .unwrap_or_default(),
+                m.level_dbfs
+            ),
+        ),
+        (None, Some(_)) => fail(
+            "--masking-audio",
+            format!("{}: the protocol has no `masking` to play", file.display()),
+        ),
+        (Some(m), Some(output)) => crate::audio::Masker::open(output, *m, seed)
+            .map(|m| Some(std::sync::Arc::new(m)))
+            .or_else(|e| fail("--masking-audio", e.to_string())),
+    }
+}
+
+/// `audio`: the sound server's outputs, a line each; no server is exit 2.
+pub(super) fn audio_command() -> Result<(), Failure> {
+    let outputs = crate::audio::outputs()
+        .map_err(|e| Failure::from(vec![UserError::new("audio", e.to_string())]))?;
+    if outputs.is_empty() {
+        return emit("no outputs on the sound server\n");
+    }
+    let mut lines = String::new();
+    for o in outputs {
+        let _ = writeln!(
+            lines,
+            "{}\t{}\t{}\t{}",
+            o.name, o.channels, o.rate_hz, o.description
+        );
     }
     emit(&lines)
 }
@@ -721,8 +773,9 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
             }),
         );
     }
-    let interrupt = install_interrupt()?;
     let seed = args.seed.unwrap_or_else(rand::random::<u64>);
+    let masker = open_masker(&args.protocol, &protocol, &args.sound, seed)?;
+    let interrupt = install_interrupt()?;
     let dir = results::ResultsDir::new(&args.out);
     let req = session::SessionRequest {
         protocol: &protocol,
@@ -735,6 +788,7 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
         device: &args.device,
         streams: true,
         population: None,
+        masker,
         lsl: lsl.as_ref(),
     };
     let outcome = match &args.device {

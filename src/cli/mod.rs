@@ -17,10 +17,10 @@ mod commands;
 
 use check_device::check_device_command;
 use commands::{
-    analyze_command, claims_command, emulator_command, firmware_qemu_command, gui_command,
-    haply2diy_emulator_command, identify_command, inverse3_emulator_command, models_json,
-    ports_command, power_command, power_merge_command, render_command, rerender_command,
-    run_command, simulate_command, validate_command, validation_command,
+    analyze_command, audio_command, claims_command, emulator_command, firmware_qemu_command,
+    gui_command, haply2diy_emulator_command, identify_command, inverse3_emulator_command,
+    models_json, ports_command, power_command, power_merge_command, render_command,
+    rerender_command, run_command, simulate_command, validate_command, validation_command,
 };
 
 /// `--device`: `sim` (the simulated apparatus), a serial port's path (our
@@ -98,6 +98,17 @@ struct LslArgs {
     /// recorder connects are not in its recording (`run`, `simulate`).
     #[arg(long, value_name = "S", default_value_t = 0.0, requires = "lsl")]
     lsl_wait: f64,
+}
+
+/// Sound outputs a session plays on (issue 64; `frictionlab audio` lists
+/// them).
+#[derive(Debug, Clone, Default, clap::Args)]
+struct SoundArgs {
+    /// Play the protocol's masking noise (its `masking`) on this output of
+    /// the sound server (PulseAudio or PipeWire): headphones. A protocol
+    /// with masking does not run without it.
+    #[arg(long, value_name = "OUTPUT")]
+    masking_audio: Option<String>,
 }
 
 /// `run --pace` when not given: real time.
@@ -184,6 +195,10 @@ enum Command {
     /// Lists the devices this machine has, of every kind, as `--device`
     /// names them.
     Ports,
+    /// Lists the sound server's outputs (PulseAudio, or PipeWire's pulse
+    /// server), as `--masking-audio` names them:
+    /// `NAME\tCHANNELS\tRATE\tDESCRIPTION`.
+    Audio,
     /// The bring-up check of a device before its first session, through
     /// the haptic loop a session uses: the handshake, the loop's rate and
     /// jitter, the encoder's direction and scale against the stated travel
@@ -327,6 +342,8 @@ struct RunArgs {
     device_timeout: f64,
     #[command(flatten)]
     lsl: LslArgs,
+    #[command(flatten)]
+    sound: SoundArgs,
 }
 
 /// `device-emulator`: the device wired wrong, to try the bring-up check
@@ -581,6 +598,7 @@ pub fn main() -> ExitCode {
         } => validation_command(&dir, no_sweep, jobs),
         Command::Identify(args) => identify_command(&args),
         Command::Ports => ports_command(),
+        Command::Audio => audio_command(),
         Command::CheckDevice(mut args) => {
             if let DeviceChoice::Device(address) = &mut args.device {
                 address.settings.set.clone_from(&args.device_set);

@@ -296,6 +296,7 @@ impl SetupPanel {
             device: &self.device,
             streams: true,
             population: None,
+            masker: None,
             lsl: lsl.as_ref(),
         };
         let dir = ResultsDir::new(self.out.trim());

@@ -151,6 +151,18 @@ pub(super) fn check<K: Kinds>(p: &Protocol<K>, errors: &mut Vec<Problem>) {
         return;
     }
     c.duration("break_s", p.break_s);
+    if let Some(m) = &p.masking {
+        use crate::audio::noise::{MAX_LEVEL_DBFS, MIN_LEVEL_DBFS};
+        if !(MIN_LEVEL_DBFS..=MAX_LEVEL_DBFS).contains(&m.level_dbfs) {
+            c.err(
+                "masking.level_dbfs",
+                format!(
+                    "{} dBFS is outside {MIN_LEVEL_DBFS} to {MAX_LEVEL_DBFS} dBFS (RMS; the ceiling keeps the noise's peaks below full scale)",
+                    m.level_dbfs
+                ),
+            );
+        }
+    }
     for (i, v) in p.validation.iter().enumerate() {
         super::validation::check(v, &format!("validation[{i}]"), &mut c);
     }

@@ -271,6 +271,7 @@ impl Walk {
             block_order: optional(BlockOrder::default()),
             break_s: optional(0.0_f64),
             instructions: optional(String::new()),
+            masking: optional(None),
             design: required_object(K::read_design),
             validation: optional(Vec::new()),
         })

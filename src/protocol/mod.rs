@@ -74,6 +74,12 @@ pub struct Protocol<K: Kinds> {
     /// Instructions shown before the first trial.
     #[serde(default)]
     pub instructions: String,
+    /// Masking noise on headphones (seed 001: pink noise), played on
+    /// `--masking-audio`; a session that asks for it does not run without
+    /// it. The simulated participant hears nothing: `simulate` and the
+    /// replays ignore it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub masking: Option<crate::audio::Masking>,
     /// The study-specific design.
     pub design: K::Design,
     /// The human experiments this protocol redoes, one row each, and the

@@ -71,6 +71,11 @@ pub struct Header<K: Kinds> {
     /// (`simulate --population`); absent: the default.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub population: Option<crate::participant::Population>,
+    /// What the session played on the sound server's outputs (issue 64):
+    /// the output, its rate, its buffer and the latency the server reported;
+    /// empty when nothing played.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub sound: Vec<crate::audio::Playing>,
 }
 
 /// One line of a session log.

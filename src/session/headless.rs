@@ -114,7 +114,7 @@ pub fn run_simulated(
         &super::DeviceChoice::Simulated,
         sim_participant,
     )?;
-    let run = Run::new(session, req.lsl)?;
+    let run = Run::new(session, req.lsl, req.masker.clone())?;
     drive(run, req.pace, stop, progress).map(|(outcome, _)| outcome)
 }
 
@@ -147,7 +147,7 @@ pub fn run_planned<R: Responder>(
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<SessionOutcome, SessionError> {
     let session = Session::from_planned(dir, planned, &super::DeviceChoice::Simulated, responder)?;
-    drive(Run::new(session, None)?, pace, stop, progress).map(|(outcome, _)| outcome)
+    drive(Run::new(session, None, None)?, pace, stop, progress).map(|(outcome, _)| outcome)
 }
 
 /// Steps a session on the simulated device to its end, paced by `pace`;
@@ -207,12 +207,13 @@ pub fn simulate_in_memory(sim: &Simulation<'_>, i: u32) -> Result<ReadLog, Sessi
         device: &super::DeviceChoice::Simulated,
         streams: false,
         population: sim.population,
+        masker: None,
         lsl: None,
     };
     let (header, source) =
         super::open::new_session(&req, 1, i, <SimParticipant as Responder>::LABEL);
     let session = Session::in_memory(header, source, sim_participant)?;
-    let (_, run) = drive(Run::new(session, None)?, None, None, &mut |_, _| {})?;
+    let (_, run) = drive(Run::new(session, None, None)?, None, None, &mut |_, _| {})?;
     Ok(run.into_session().into_records())
 }
 
@@ -469,6 +470,7 @@ pub fn simulate_participants(
             device: &super::DeviceChoice::Simulated,
             streams: sim.streams,
             population: sim.population,
+            masker: None,
             lsl: sim.lsl,
         };
         let mut reported = 0;
@@ -523,6 +525,7 @@ mod tests {
             device: &device,
             streams: true,
             population: None,
+            masker: None,
             lsl: None,
         };
         f(&ResultsDir::new(dir), &req)

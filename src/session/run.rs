@@ -4,12 +4,20 @@
 //! which answers the session's waits ([`Event::Ready`] with [`Feed::Go`],
 //! the run's end with [`Feed::Close`]). The headless runners and the window
 //! differ only in how they feed it.
+//!
+//! With masking noise ([`crate::audio::Masker`], issue 64) it switches the
+//! noise as the protocol's `masking.during` says: on from the run's start,
+//! or on at each [`Event::TrialStarted`] and off when the trial's record
+//! is [`Event::Written`]; at the run's end it ramps the noise down and
+//! closes the stream.
 
 use super::lsl::Publishing;
 use super::{Event, Feed, Person, Responder, Session, SessionError, SessionRequest};
+use crate::audio::{During, Masker};
 use crate::kinds::Header;
 use crate::lsl::Streaming;
 use crate::results::{ResultsDir, ResultsError};
+use std::sync::Arc;
 
 /// A session a person runs from the window.
 pub type LiveSession = Run<Person>;
@@ -18,6 +26,7 @@ pub type LiveSession = Run<Person>;
 pub struct Run<R: Responder> {
     session: Session<R>,
     lsl: Option<Publishing>,
+    masker: Option<Arc<Masker>>,
 }
 
 impl<R: Responder> std::ops::Deref for Run<R> {
@@ -31,19 +40,41 @@ impl<R: Responder> std::ops::Deref for Run<R> {
 impl<R: Responder> Run<R> {
     /// Runs `session`, published on LSL with `streaming` if given (with
     /// the simulated device both streams open now; on a port when the
-    /// device is ready).
+    /// device is ready), with `masker`'s noise if given (on now for a
+    /// whole session's masking).
     ///
     /// # Errors
     /// liblsl made no outlet, or its worker could not start.
     pub fn new(
         mut session: Session<R>,
         streaming: Option<&Streaming>,
+        masker: Option<Arc<Masker>>,
     ) -> Result<Self, SessionError> {
         let lsl = match streaming {
             Some(streaming) => Some(Publishing::start(streaming, &mut session)?),
             None => None,
         };
-        Ok(Run { session, lsl })
+        if let Some(m) = &masker {
+            session = session.with_events();
+            m.set_on(m.masking().during == During::Session);
+        }
+        Ok(Run {
+            session,
+            lsl,
+            masker,
+        })
+    }
+
+    /// Switches the masking noise for `event` (see the module docs).
+    fn mask(&self, event: &Event) {
+        let Some(m) = &self.masker else { return };
+        let trials = m.masking().during == During::Trials;
+        match event {
+            Event::TrialStarted { .. } if trials => m.set_on(true),
+            Event::Written { .. } if trials => m.set_on(false),
+            Event::Finished { .. } | Event::Stopped { .. } => m.finish(),
+            _ => {}
+        }
     }
 
     /// Plans (or resumes) a session ([`Session::begin`]) and runs it,
@@ -56,7 +87,11 @@ impl<R: Responder> Run<R> {
         req: &SessionRequest<'_>,
         responder: impl FnOnce(&Header) -> R,
     ) -> Result<Self, SessionError> {
-        Run::new(Session::begin(dir, req, responder)?, req.lsl)
+        Run::new(
+            Session::begin(dir, req, responder)?,
+            req.lsl,
+            req.masker.clone(),
+        )
     }
 
     /// Feeds the session and publishes what followed.
@@ -66,6 +101,7 @@ impl<R: Responder> Run<R> {
     pub fn feed(&mut self, feed: Feed) -> Result<(), ResultsError> {
         self.session.handle(feed)?;
         while let Some(event) = self.session.poll_event() {
+            self.mask(&event);
             let Some(lsl) = &mut self.lsl else { continue };
             let ends = matches!(event, Event::Finished { .. } | Event::Stopped { .. });
             lsl.on(event, &mut self.session)
@@ -120,7 +156,7 @@ impl Run<Person> {
     /// As [`Run::begin`].
     pub fn start(dir: &ResultsDir, req: &SessionRequest<'_>) -> Result<Self, SessionError> {
         let session = Session::begin(dir, req, |_| Person::default())?.with_trace();
-        Run::new(session, req.lsl)
+        Run::new(session, req.lsl, req.masker.clone())
     }
 
     /// Where the mouse holds the hand, m (`None`: the pointer is away).

@@ -492,6 +492,7 @@ mod tests {
             device: &DeviceChoice::Simulated,
             streams: false,
             population: None,
+            masker: None,
             lsl: None,
         }
     }
