@@ -25,6 +25,7 @@ pub mod participant;
 pub mod power;
 pub mod problem;
 pub mod protocol;
+pub mod realtime;
 pub mod render;
 pub mod rerender;
 pub mod results;

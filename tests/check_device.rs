@@ -171,11 +171,7 @@ enum Emulated {
 fn on(kind: Emulated, options: &[&str]) -> Checked {
     let tmp = tempfile::tempdir().unwrap();
     let dev = tmp.path().join("dev");
-    let port = std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port();
+    let port = crate::common::free_port();
     let address = format!("127.0.0.1:{port}");
     let (target, mut all) = match kind {
         Emulated::OurBoard => (dev.display().to_string(), vec![]),

@@ -330,7 +330,7 @@ fn a_live_gui_session_runs_on_the_emulated_device() {
         device: &device,
         streams: true,
         population: None,
-        masker: None,
+        sound: frictionlab::session::sound::Sound::default(),
         lsl: None,
     };
     let mut live = LiveSession::start(&results, &req).unwrap();
@@ -417,7 +417,7 @@ fn a_live_session_on_a_silent_device_writes_nothing() {
         device: &DeviceChoice::port(&port),
         streams: true,
         population: None,
-        masker: None,
+        sound: frictionlab::session::sound::Sound::default(),
         lsl: None,
     };
     let mut live = LiveSession::start(&results, &req).unwrap();
@@ -605,7 +605,7 @@ fn a_device_lost_in_the_answer_phase_costs_that_trial_headless() {
             device: &device,
             streams: true,
             population: None,
-            masker: None,
+            sound: frictionlab::session::sound::Sound::default(),
             lsl: None,
         };
         run_device(&results, &req, 1.0, |_| Waiting, None, &mut |_, _| {})
@@ -645,7 +645,7 @@ fn live_magnitude_quick(
         device: &DeviceChoice::port(dev),
         streams: true,
         population: None,
-        masker: None,
+        sound: frictionlab::session::sound::Sound::default(),
         lsl: None,
     };
     let mut live = LiveSession::start(&results, &req).unwrap();

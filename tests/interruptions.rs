@@ -288,7 +288,7 @@ fn a_pause_at_any_moment_gives_the_uninterrupted_data_issue_42() {
                 device: &DeviceChoice::Simulated,
                 streams: false,
                 population: None,
-                masker: None,
+                sound: frictionlab::session::sound::Sound::default(),
                 lsl: None,
             };
             let mut s =

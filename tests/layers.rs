@@ -24,7 +24,7 @@ const LAYERS: &[(&str, &[&str])] = &[
         "1 foundation: friction core, hand, scenarios, utilities",
         &[
             "friction", "hand", "problem", "parallel", "scenario", "settings", "identify", "lsl",
-            "audio", "time",
+            "audio", "realtime", "time",
         ],
     ),
     (

@@ -1,7 +1,7 @@
 //! The integration tests against real clocks: devices and their emulators,
-//! QEMU, LSL, real windows, Slurm, and signals to live sessions. They
-//! share the machine only with each other, two at a time (Cargo.toml says
-//! why the tests are four binaries). `cargo test --test realtime lsl::`
+//! QEMU, LSL, real windows, Slurm, a sound server, and signals to live
+//! sessions. They share the machine only with each other, two at a time
+//! (Cargo.toml says why the tests are four binaries). `cargo test --test realtime lsl::`
 //! runs one file's tests.
 mod common;
 
@@ -15,3 +15,4 @@ mod inverse3;
 mod lsl;
 mod one_process;
 mod slurm;
+mod sound;

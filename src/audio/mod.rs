@@ -11,20 +11,30 @@
 pub mod noise;
 #[cfg(unix)]
 pub mod pulse;
+pub mod tactile;
 // Elsewhere no server is found (cpal's backends for macOS and Windows are
 // not yet built in: see the guide's sound page).
 #[cfg(not(unix))]
 #[path = "none.rs"]
 pub mod pulse;
 
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 /// The buffer a player asks the server for, frames at 48 kHz: 5.3 ms.
 pub const BUFFER_FRAMES: u32 = 256;
+
+/// The tactile display's buffer, frames at 48 kHz: 10.7 ms. With 256
+/// frames (5.3 ms) PulseAudio's null sink ran dry about once every 2 s
+/// beside one busy core (38 underruns in a 71 s session, and 3 in 16 s on
+/// an idle machine), even with the server's threads at real-time
+/// priority: this client speaks to the server's main thread over its
+/// socket (no shared-memory channel to the sink's thread). With 512, none
+/// ran dry (issue 64's note).
+pub const TACTILE_BUFFER_FRAMES: u32 = 512;
 
 /// An output of the sound server (a PulseAudio sink).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -80,6 +90,8 @@ pub struct StreamInfo {
 pub enum Role {
     /// The protocol's masking noise.
     Masking,
+    /// The tactile display: the models' vibrotactile drive.
+    Tactile,
 }
 
 /// A stream a session played, as its log's header records it.
@@ -87,9 +99,49 @@ pub enum Role {
 pub struct Playing {
     /// What it played.
     pub role: Role,
+    /// The channel it played on, from 1 (the tactile display); every
+    /// channel when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub channel: Option<usize>,
     /// The stream.
     #[serde(flatten)]
     pub stream: StreamInfo,
+}
+
+/// How a session's sound went, for the log's last lines (`sound`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct SoundStats {
+    /// One entry per stream.
+    pub streams: Vec<StreamStats>,
+}
+
+/// How one stream went.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct StreamStats {
+    /// What it played.
+    pub role: Role,
+    /// The output.
+    pub output: String,
+    /// Underruns over the run: the server's, and for the tactile display
+    /// the drive not played as sent.
+    pub underruns: u64,
+    /// The tactile display's underruns by cause: the server ran dry, the
+    /// loop's drive ran out, the play time slipped.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub underrun_causes: Option<[u64; 3]>,
+    /// The tactile display: the delay from a haptic tick to the output,
+    /// median and 99th percentile over every buffer, s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delay_p50_s: Option<f64>,
+    /// See `delay_p50_s`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delay_p99_s: Option<f64>,
+    /// The tactile display: the haptic loop's clock origin (session time
+    /// 0 of a device session) on the system's monotonic clock
+    /// (`CLOCK_MONOTONIC`, LSL's clock, what `parec`'s timestamps are on),
+    /// s: a recording of the output aligns with the session's streams.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clock_origin_monotonic_s: Option<f64>,
 }
 
 /// What a player plays: filled on the player's thread, which is the
@@ -100,6 +152,9 @@ pub trait Source: Send + 'static {
     fn fill(&mut self, out: &mut [f32], channels: usize, ending: bool);
     /// Whether, ending, the source has gone silent (the stream may drain).
     fn finished(&self) -> bool;
+    /// The server's latency for the stream as it last reported,
+    /// microseconds: the queue ahead of what is filled now.
+    fn latency(&mut self, _latency_us: u64) {}
 }
 
 /// Noise of a color at a level.
@@ -160,15 +215,89 @@ impl Source for Gated {
     }
 }
 
+/// A player on an output that can be opened again after it was lost (the
+/// server restarted, the output replugged).
+struct Held {
+    output: String,
+    buffer_frames: u32,
+    player: Mutex<pulse::Player>,
+    /// Underruns of the players before this one.
+    carried: AtomicU64,
+}
+
+impl Held {
+    fn open(output: &str, buffer_frames: u32, source: Box<dyn Source>) -> Result<Held, AudioError> {
+        Ok(Held {
+            output: output.to_owned(),
+            buffer_frames,
+            player: Mutex::new(pulse::Player::open(output, buffer_frames, source)?),
+            carried: AtomicU64::new(0),
+        })
+    }
+
+    fn player(&self) -> MutexGuard<'_, pulse::Player> {
+        self.player.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Opens the output again with `source`, in place of the lost player.
+    fn reopen(&self, source: Box<dyn Source>) -> Result<(), AudioError> {
+        let fresh = pulse::Player::open(&self.output, self.buffer_frames, source)?;
+        let old = std::mem::replace(&mut *self.player(), fresh);
+        self.carried.fetch_add(
+            old.shared.underruns.load(Ordering::SeqCst),
+            Ordering::SeqCst,
+        );
+        Ok(())
+    }
+
+    fn underruns(&self) -> u64 {
+        self.carried.load(Ordering::SeqCst) + self.player().shared.underruns.load(Ordering::SeqCst)
+    }
+
+    fn lost(&self) -> bool {
+        self.player().shared.lost.load(Ordering::SeqCst)
+    }
+
+    fn info(&self) -> StreamInfo {
+        self.player().info.clone()
+    }
+
+    fn latency_s(&self) -> f64 {
+        #[allow(clippy::cast_precision_loss)]
+        let us = self.player().shared.latency_us.load(Ordering::SeqCst) as f64;
+        us * 1e-6
+    }
+
+    fn peak(&self) -> f32 {
+        f32::from_bits(self.player().shared.peak.load(Ordering::SeqCst))
+    }
+
+    fn finish(&self) {
+        self.player().finish();
+    }
+}
+
 /// Masking noise playing on an output: on and off with ramps at its
 /// shell's word.
 pub struct Masker {
-    player: pulse::Player,
+    held: Held,
     gate: Arc<AtomicBool>,
     masking: Masking,
+    seed: u64,
 }
 
 impl Masker {
+    fn source(masking: Masking, seed: u64, gate: &Arc<AtomicBool>) -> Box<dyn Source> {
+        let color = match masking.noise {
+            NoiseColor::Pink => noise::Color::Pink,
+            NoiseColor::White => noise::Color::White,
+        };
+        Box::new(Gated {
+            noise: noise::Masking::new(color, masking.level_dbfs, f64::from(pulse::RATE_HZ), seed),
+            gate: gate.clone(),
+        })
+    }
+
     /// Opens `output` for `masking` (off until [`Masker::set_on`]), its
     /// noise seeded by `seed`.
     ///
@@ -176,20 +305,17 @@ impl Masker {
     /// No sound server, no such output, or the stream refused.
     pub fn open(output: &str, masking: Masking, seed: u64) -> Result<Masker, AudioError> {
         let gate = Arc::new(AtomicBool::new(false));
-        let color = match masking.noise {
-            NoiseColor::Pink => noise::Color::Pink,
-            NoiseColor::White => noise::Color::White,
-        };
-        let source = Gated {
-            noise: noise::Masking::new(color, masking.level_dbfs, f64::from(pulse::RATE_HZ), seed),
-            gate: gate.clone(),
-        };
         // A longer buffer than the tactor's: noise needs no low latency.
-        let player = pulse::Player::open(output, BUFFER_FRAMES * 8, Box::new(source))?;
+        let held = Held::open(
+            output,
+            BUFFER_FRAMES * 8,
+            Self::source(masking, seed, &gate),
+        )?;
         Ok(Masker {
-            player,
+            held,
             gate,
             masking,
+            seed,
         })
     }
 
@@ -204,28 +330,48 @@ impl Masker {
         self.gate.store(on, Ordering::Relaxed);
     }
 
-    /// The stream as it opened.
-    #[must_use]
-    pub fn info(&self) -> &StreamInfo {
-        &self.player.info
-    }
-
-    /// Underruns so far.
+    /// Underruns so far (over every reopening).
     #[must_use]
     pub fn underruns(&self) -> u64 {
-        self.player.shared.underruns.load(Ordering::SeqCst)
+        self.held.underruns()
     }
 
     /// Whether the output or its server is gone.
     #[must_use]
     pub fn lost(&self) -> bool {
-        self.player.shared.lost.load(Ordering::SeqCst)
+        self.held.lost()
+    }
+
+    /// Opens the output again after it was lost.
+    ///
+    /// # Errors
+    /// As [`Masker::open`].
+    pub fn reopen(&self) -> Result<(), AudioError> {
+        self.held.reopen(Self::source(
+            self.masking,
+            self.seed ^ self.underruns(),
+            &self.gate,
+        ))
     }
 
     /// Ramps down, plays out what is buffered and closes (at once if
     /// lost).
     pub fn finish(&self) {
-        self.player.finish();
+        self.held.finish();
+    }
+
+    /// How it went.
+    #[must_use]
+    pub fn stats(&self) -> StreamStats {
+        StreamStats {
+            role: Role::Masking,
+            output: self.held.output.clone(),
+            underruns: self.underruns(),
+            underrun_causes: None,
+            delay_p50_s: None,
+            delay_p99_s: None,
+            clock_origin_monotonic_s: None,
+        }
     }
 
     /// What the log's header keeps of it.
@@ -233,7 +379,8 @@ impl Masker {
     pub fn playing(&self) -> Playing {
         Playing {
             role: Role::Masking,
-            stream: self.player.info.clone(),
+            channel: None,
+            stream: self.held.info(),
         }
     }
 }
@@ -242,7 +389,172 @@ impl std::fmt::Debug for Masker {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Masker")
             .field("masking", &self.masking)
-            .field("stream", &self.player.info)
+            .field("output", &self.held.output)
+            .finish_non_exhaustive()
+    }
+}
+
+/// `OUTPUT[:CHANNEL]`, the channel counted from 1 (default 1): the
+/// output's name and the 0-based channel.
+///
+/// # Errors
+/// A channel that is not a whole number from 1.
+pub fn output_and_channel(text: &str) -> Result<(String, usize), String> {
+    match text.rsplit_once(':') {
+        Some((output, channel)) if !output.is_empty() => match channel.parse::<usize>() {
+            Ok(c) if c >= 1 => Ok((output.to_owned(), c - 1)),
+            _ => Err(format!(
+                "'{channel}' is not a channel (1 for the first, as in OUTPUT:1)"
+            )),
+        },
+        _ => Ok((text.to_owned(), 0)),
+    }
+}
+
+/// The tactile display on one channel of an output: the haptic loop's
+/// drive, resampled and played at a fixed delay ([`tactile`]).
+pub struct Tactor {
+    held: Held,
+    feed: tactile::Feed,
+    counts: Arc<tactile::Counts>,
+    channel: usize,
+}
+
+impl Tactor {
+    /// Opens channel `channel` (0-based) of `output`.
+    ///
+    /// # Errors
+    /// No sound server, no such output or channel, or the stream refused.
+    pub fn open(output: &str, channel: usize) -> Result<Tactor, AudioError> {
+        let counts = Arc::new(tactile::Counts::default());
+        let (producer, source) = tactile::source(channel, f64::from(pulse::RATE_HZ), &counts);
+        let held = Held::open(output, TACTILE_BUFFER_FRAMES, Box::new(source))?;
+        let channels = held.info().channels;
+        if channel >= channels {
+            return Err(AudioError::Server(format!(
+                "output '{output}' has {channels} channels; channel {} was asked for",
+                channel + 1
+            )));
+        }
+        Ok(Tactor {
+            held,
+            feed: tactile::Feed::new(producer, counts.clone()),
+            counts,
+            channel,
+        })
+    }
+
+    /// Hands the drive `v` at loop time `t_s` (its quadrature `q`, of a
+    /// `burst`: [`tactile::Feed::push`]) to the player: from the loop's
+    /// thread, never waiting.
+    pub fn push(&self, t_s: f64, v: f64, q: f64, burst: Option<(f64, f64)>) {
+        self.feed.push(t_s, v, q, burst);
+    }
+
+    /// Underruns so far: the server's, and the drive not played as sent
+    /// (the loop stalled, or the clocks slipped).
+    #[must_use]
+    pub fn underruns(&self) -> u64 {
+        let [server, starved, slips] = self.underrun_parts();
+        server + starved + slips
+    }
+
+    /// Underruns so far by cause: the server ran dry; the loop's drive ran
+    /// out (the loop stalled); the play time jumped (the clocks slipped).
+    #[must_use]
+    pub fn underrun_parts(&self) -> [u64; 3] {
+        [
+            self.held.underruns(),
+            self.counts.starved.load(Ordering::SeqCst),
+            self.counts.slips.load(Ordering::SeqCst),
+        ]
+    }
+
+    /// Whether the output or its server is gone.
+    #[must_use]
+    pub fn lost(&self) -> bool {
+        self.held.lost()
+    }
+
+    /// Opens the output again after it was lost: a new ring between the
+    /// loop's side and the new player.
+    ///
+    /// # Errors
+    /// As [`Tactor::open`].
+    pub fn reopen(&self) -> Result<(), AudioError> {
+        let (producer, source) =
+            tactile::source(self.channel, f64::from(pulse::RATE_HZ), &self.counts);
+        self.held.reopen(Box::new(source))?;
+        self.feed.replace(producer);
+        Ok(())
+    }
+
+    /// What the log's header keeps of it: its latency is the server's
+    /// plus the fixed delay behind the loop ([`tactile::DELAY_S`]).
+    #[must_use]
+    pub fn playing(&self) -> Playing {
+        let mut stream = self.held.info();
+        stream.latency_s += tactile::DELAY_S;
+        Playing {
+            role: Role::Tactile,
+            channel: Some(self.channel + 1),
+            stream,
+        }
+    }
+
+    /// The server's latency for the stream now, s (0 until it reports).
+    #[must_use]
+    pub fn server_latency_s(&self) -> f64 {
+        self.held.latency_s()
+    }
+
+    /// From now on, measure the delay from tick to output against the
+    /// loop's clock, which started at `origin` (its ticks' `now_s`).
+    pub fn set_origin(&self, origin: std::time::Instant) {
+        let _ = self.counts.origin.set(origin);
+    }
+
+    /// The delay from a tick to the output, s: its median and 99th
+    /// percentile over every buffer played (`None` before any).
+    #[must_use]
+    pub fn delay_quantiles_s(&self) -> Option<(f64, f64)> {
+        let d = &self.counts.delays;
+        Some((d.quantile(0.5)?, d.quantile(0.99)?))
+    }
+
+    /// How it went; `origin_monotonic_s`: the loop's clock origin on the
+    /// monotonic clock, if known.
+    #[must_use]
+    pub fn stats(&self, origin_monotonic_s: Option<f64>) -> StreamStats {
+        let delays = self.delay_quantiles_s();
+        StreamStats {
+            role: Role::Tactile,
+            output: self.held.output.clone(),
+            underruns: self.underruns(),
+            underrun_causes: Some(self.underrun_parts()),
+            delay_p50_s: delays.map(|d| d.0),
+            delay_p99_s: delays.map(|d| d.1),
+            clock_origin_monotonic_s: origin_monotonic_s,
+        }
+    }
+
+    /// The largest |sample| of the buffer played last.
+    #[must_use]
+    pub fn peak(&self) -> f32 {
+        self.held.peak()
+    }
+
+    /// Ramps down, plays out what is buffered and closes.
+    pub fn finish(&self) {
+        self.held.finish();
+    }
+}
+
+impl std::fmt::Debug for Tactor {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Tactor")
+            .field("output", &self.held.output)
+            .field("channel", &self.channel)
             .finish_non_exhaustive()
     }
 }

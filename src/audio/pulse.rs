@@ -146,6 +146,10 @@ pub struct Player {
     pub(super) info: StreamInfo,
 }
 
+/// The longest a player takes to finish, s: its ramp down (50 ms) and
+/// its buffers played out, with room to spare.
+pub const FINISH_S: f64 = 1.0;
+
 /// Tags of the requests the player's thread makes.
 const TAG_LATENCY: u32 = 0x7000_0000;
 const TAG_DRAIN: u32 = 0x7000_0001;
@@ -234,7 +238,12 @@ impl Player {
             let first = reply.requested_bytes;
             std::thread::Builder::new()
                 .name(format!("audio {output}"))
-                .spawn(move || stream.run(first))
+                .spawn(move || {
+                    // The stream's callback runs when it is due, as the
+                    // haptic loop does (granted or not, it plays).
+                    let _ = crate::realtime::ask_fifo();
+                    stream.run(first);
+                })
                 .map_err(|e| AudioError::Server(e.to_string()))?
         };
         Ok(Player {
@@ -246,9 +255,25 @@ impl Player {
     }
 
     /// Ends the stream: the source ramps down, what is buffered plays out,
-    /// then the thread ends. Returns at once if the player was lost.
+    /// then the thread ends; at most [`FINISH_S`] (a server that stopped
+    /// asking for sound is cut off). At once if the player was lost.
     pub fn finish(&self) {
         self.shared.finish.store(true, Ordering::SeqCst);
+        let started = std::time::Instant::now();
+        while started.elapsed().as_secs_f64() < FINISH_S {
+            let done = self
+                .thread
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .as_ref()
+                .is_none_or(JoinHandle::is_finished);
+            if done {
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        self.shared.stop.store(true, Ordering::SeqCst);
+        let _ = self.sock.shutdown(std::net::Shutdown::Both);
         self.join();
     }
 
@@ -316,6 +341,7 @@ impl Stream {
                     self.shared
                         .latency_us
                         .store(l.sink_usec + queued_us, Ordering::SeqCst);
+                    self.source.latency(l.sink_usec + queued_us);
                 }
                 Ok((TAG_DRAIN, Command::Reply)) => return,
                 Ok((_, Command::PlaybackStreamKilled(c))) if c == self.channel => break,

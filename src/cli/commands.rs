@@ -388,6 +388,57 @@ fn open_masker(
     }
 }
 
+/// Issue 64: sound is the headless run's for now; a sound flag with
+/// `--responder gui` is refused (exit 2), not ignored.
+fn no_sound_in_the_window(args: &SoundArgs) -> Result<(), Failure> {
+    let given = [
+        ("--masking-audio", &args.masking_audio),
+        ("--tactile-audio", &args.tactile_audio),
+    ];
+    match given.iter().find(|(_, v)| v.is_some()) {
+        Some((flag, _)) => Err(vec![UserError::new(
+            *flag,
+            "the window does not play sound yet; give --responder sim, or run without it",
+        )]
+        .into()),
+        None => Ok(()),
+    }
+}
+
+/// The sound a run plays, opened before anything is written
+/// ([`open_masker`], and `--tactile-audio` on a device): a bad channel, no
+/// server, no such output, or the simulated apparatus is exit 2, one line.
+fn open_sound(
+    file: &Path,
+    protocol: &crate::kinds::Protocol,
+    args: &SoundArgs,
+    device: &DeviceChoice,
+    seed: u64,
+    timeout_s: f64,
+) -> Result<session::sound::Sound, Failure> {
+    let masker = open_masker(file, protocol, args, seed)?;
+    let fail = |what: String| Failure::from(vec![UserError::new("--tactile-audio", what)]);
+    let tactor = match &args.tactile_audio {
+        None => None,
+        Some(_) if *device == DeviceChoice::Simulated => {
+            return Err(fail(
+                "the tactile display plays a device's haptic loop, and the simulated apparatus runs none in real time; give --device (the Inverse3 emulator will do)".to_owned(),
+            ));
+        }
+        Some(text) => {
+            let (output, channel) = crate::audio::output_and_channel(text).map_err(fail)?;
+            Some(std::sync::Arc::new(
+                crate::audio::Tactor::open(&output, channel).map_err(|e| fail(e.to_string()))?,
+            ))
+        }
+    };
+    Ok(session::sound::Sound {
+        masker,
+        tactor,
+        timeout_s,
+    })
+}
+
 /// `audio`: the sound server's outputs, a line each; no server is exit 2.
 pub(super) fn audio_command() -> Result<(), Failure> {
     let outputs = crate::audio::outputs()
@@ -754,6 +805,7 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
         }
     };
     if args.responder == ResponderChoice::Gui {
+        no_sound_in_the_window(&args.sound)?;
         // A person answers: the experimenter window opens with this session
         // started (or resumed).
         return gui_command(
@@ -774,7 +826,14 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
         );
     }
     let seed = args.seed.unwrap_or_else(rand::random::<u64>);
-    let masker = open_masker(&args.protocol, &protocol, &args.sound, seed)?;
+    let sound = open_sound(
+        &args.protocol,
+        &protocol,
+        &args.sound,
+        &args.device,
+        seed,
+        args.device_timeout,
+    )?;
     let interrupt = install_interrupt()?;
     let dir = results::ResultsDir::new(&args.out);
     let req = session::SessionRequest {
@@ -788,7 +847,7 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
         device: &args.device,
         streams: true,
         population: None,
-        masker,
+        sound,
         lsl: lsl.as_ref(),
     };
     let outcome = match &args.device {
@@ -845,7 +904,8 @@ fn device_run_failure(
         | SessionError::Device(..)
         | SessionError::WrongDevice(..)
         | SessionError::BeyondTravel(_)
-        | SessionError::Lsl(_) => session_failure(protocol, e),
+        | SessionError::Lsl(_)
+        | SessionError::SoundLost { .. } => session_failure(protocol, e),
         e => device_failure(&format!("--device {address}"), e.to_string()),
     }
 }

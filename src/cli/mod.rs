@@ -109,6 +109,12 @@ struct SoundArgs {
     /// with masking does not run without it.
     #[arg(long, value_name = "OUTPUT")]
     masking_audio: Option<String>,
+    /// The tactile display: play every model's vibrotactile drive on this
+    /// output's channel (from 1; default 1), to an amplifier and a tactor,
+    /// as well as to a device with a vibration channel. Needs a device's
+    /// haptic loop (not `--device sim`).
+    #[arg(long, value_name = "OUTPUT[:CHANNEL]")]
+    tactile_audio: Option<String>,
 }
 
 /// `run --pace` when not given: real time.
@@ -730,6 +736,7 @@ impl From<SessionError> for Failure {
             | SessionError::DeviceFailed { .. }
             | SessionError::NotConfirmed { .. }
             | SessionError::NotBackOnTrack { .. } => device_failure("--device", e.to_string()),
+            SessionError::SoundLost { .. } => device_failure("sound", e.to_string()),
             SessionError::Lsl(message) => Failure {
                 code: EXIT_FAILURE,
                 errors: vec![UserError::new("--lsl", message)],

@@ -163,6 +163,12 @@ pub struct Tick {
     pub force_n: f64,
     /// Vibration drive sent.
     pub vibration: f64,
+    /// The drive's quadrature ([`crate::friction::Output::vibration_q`]):
+    /// with `vibration`, a carrier burst's complex envelope.
+    pub vibration_q: f64,
+    /// The render's carrier burst, if its drive is one: carrier Hz and
+    /// envelope decay 1/s ([`crate::friction::ModelParams::burst`]).
+    pub burst: Option<(f64, f64)>,
     /// The hand's position on every axis, m, device frame.
     pub position_m: Vector,
     /// The force sent on every axis, N, device frame (friction along the
@@ -229,6 +235,8 @@ impl Tick {
             v_m_s,
             force_n,
             vibration,
+            vibration_q: 0.0,
+            burst: None,
             position_m: [x_m, 0.0, 0.0],
             force_vector_n: [force_n, 0.0, 0.0],
             off_track_m: 0.0,

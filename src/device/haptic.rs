@@ -51,7 +51,8 @@ pub enum ToLoop {
     },
     /// Drive the hand of an emulated device.
     Hand(HandDrive),
-    /// From now on, offer each connected tick to this sink, on the loop's
+    /// From now on, offer each connected tick to this sink too (up to
+    /// [`MAX_SINKS`]: the LSL stream, the tactile display), on the loop's
     /// thread (whoever asked: the loop knows no reader).
     Offer(Offer),
     /// The experimenter did what the device asked (a tick's `request`).
@@ -72,6 +73,9 @@ pub trait SampleSink: Send + Sync {
     /// A connected tick, its time never before the last's.
     fn offer(&self, tick: &Tick);
 }
+
+/// The most sinks a loop offers its ticks to; a further offer is dropped.
+pub const MAX_SINKS: usize = 4;
 
 /// A [`SampleSink`] handed to the loop ([`ToLoop::Offer`]).
 #[derive(Clone)]
@@ -329,7 +333,7 @@ pub(super) struct LoopCore {
     host_render: u32,
     host_selected: bool,
     motion: Motion,
-    sink: Option<Offer>,
+    sinks: [Option<Offer>; MAX_SINKS],
     push_n: f64,
     wall: bool,
     non_finite: u64,
@@ -363,7 +367,7 @@ impl LoopCore {
                 offset_v: [0.0; MAX_AXES],
                 previous: None,
             },
-            sink: None,
+            sinks: Default::default(),
             push_n: 0.0,
             wall: true,
             non_finite: 0,
@@ -447,7 +451,11 @@ impl LoopCore {
                 self.host_selected = true;
             }
             ToLoop::Hand(drive) => device.drive_hand(&drive),
-            ToLoop::Offer(offer) => self.sink = Some(offer),
+            ToLoop::Offer(offer) => {
+                if let Some(free) = self.sinks.iter_mut().find(|s| s.is_none()) {
+                    *free = Some(offer);
+                }
+            }
             ToLoop::Confirm => device.confirm(now),
             ToLoop::Push(f) => self.push_n = if f.is_finite() { f } else { 0.0 },
             ToLoop::Wall(on) => self.wall = on,
@@ -466,15 +474,20 @@ impl LoopCore {
         self.host_selected = true;
     }
 
-    /// Hands a tick to `out` and, when a sink asked, to it (a connected
+    /// Hands a tick to `out` and to the sinks that asked (a connected
     /// tick only). Ticks' times never go back.
-    fn emit(sink: Option<&Offer>, last_s: &mut f64, out: &mut dyn FnMut(Tick), mut tick: Tick) {
+    fn emit(
+        sinks: &[Option<Offer>; MAX_SINKS],
+        last_s: &mut f64,
+        out: &mut dyn FnMut(Tick),
+        mut tick: Tick,
+    ) {
         tick.now_s = tick.now_s.max(*last_s);
         *last_s = tick.now_s;
-        if let Some(sink) = sink
-            && tick.link == LinkState::Connected
-        {
-            sink.0.offer(&tick);
+        if tick.link == LinkState::Connected {
+            for sink in sinks.iter().flatten() {
+                sink.0.offer(&tick);
+            }
         }
         out(tick);
     }
@@ -490,16 +503,16 @@ impl LoopCore {
         reading: &Reading,
         out: &mut dyn FnMut(Tick),
     ) {
-        let (sink, last_s) = (self.sink.as_ref(), &mut self.last_s);
+        let (sinks, last_s) = (&self.sinks, &mut self.last_s);
         if let Some(board) = device.on_board()
             && board.ticks(now, reading, &mut |tick| {
-                Self::emit(sink, last_s, out, tick);
+                Self::emit(sinks, last_s, out, tick);
             })
         {
             return;
         }
         let tick = self.host_tick(device, now, dt, reading);
-        Self::emit(self.sink.as_ref(), &mut self.last_s, out, tick);
+        Self::emit(&self.sinks, &mut self.last_s, out, tick);
     }
 
     /// Renders this tick of `dt` s at `now` s on the host, on what
@@ -526,15 +539,21 @@ impl LoopCore {
                 v_m_s: motion.v,
             },
         );
-        let finite = out_model.force_n.is_finite() && out_model.vibration.is_finite();
+        let finite = out_model.force_n.is_finite()
+            && out_model.vibration.is_finite()
+            && out_model.vibration_q.is_finite();
         if !finite {
             self.non_finite += 1;
         }
         let push_n = self.push_n;
-        let (along_n, vibration) = match (connected, finite) {
-            (true, true) => (out_model.force_n + push_n, out_model.vibration),
-            (true, false) => (push_n, 0.0),
-            (false, _) => (0.0, 0.0),
+        let (along_n, vibration, vibration_q) = match (connected, finite) {
+            (true, true) => (
+                out_model.force_n + push_n,
+                out_model.vibration,
+                out_model.vibration_q,
+            ),
+            (true, false) => (push_n, 0.0, 0.0),
+            (false, _) => (0.0, 0.0, 0.0),
         };
         let in_force = self.in_force;
         let force = if !connected {
@@ -570,6 +589,8 @@ impl LoopCore {
             },
             device_limit_n: self.device_limit_n,
             request: device.request(),
+            vibration_q,
+            burst: self.model.as_ref().and_then(ModelParams::burst),
             ..Tick::on_axis(now, motion.along, motion.v, along_n, vibration)
         }
     }

@@ -16,7 +16,7 @@ pub mod inverse3;
 mod loopback;
 pub mod miswiring;
 pub mod pty;
-pub mod realtime;
+pub use crate::realtime;
 pub mod sim;
 pub mod stepped;
 pub mod track;

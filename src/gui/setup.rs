@@ -272,6 +272,14 @@ impl SetupPanel {
         let (true, Ok(loaded)) = (problems.is_empty(), &self.loaded) else {
             return Err(format!("cannot start: {}", problems.join("; ")));
         };
+        if let Some(m) = &loaded.protocol.masking {
+            // Issue 64: the window does not play sound yet, and a session
+            // that asks for masking never runs without it.
+            return Err(format!(
+                "cannot start: the protocol plays masking noise ({} dBFS); the window cannot play sound yet: run it with `frictionlab run PROTOCOL --masking-audio OUTPUT`",
+                m.level_dbfs
+            ));
+        }
         let seed = self.parsed_seed()?.unwrap_or_else(rand::random::<u64>);
         let participant = self.participant.trim().to_owned();
         let lsl = match (&self.lsl, &self.lsl_lib) {
@@ -296,7 +304,7 @@ impl SetupPanel {
             device: &self.device,
             streams: true,
             population: None,
-            masker: None,
+            sound: crate::session::sound::Sound::default(),
             lsl: lsl.as_ref(),
         };
         let dir = ResultsDir::new(self.out.trim());

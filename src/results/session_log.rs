@@ -104,6 +104,9 @@ pub enum LogLine<K: Kinds> {
     /// What this run published on the Lab Streaming Layer (`--lsl`):
     /// counts, drops and latencies (issue 34).
     Lsl(crate::lsl::LslStats),
+    /// How the run's sound went (issue 64): each stream's underruns, the
+    /// tactile display's delays and clock origin.
+    Sound(crate::audio::SoundStats),
     /// An experimenter's note.
     Note {
         /// The text.
@@ -421,6 +424,7 @@ pub(super) fn parse_log_lines<K: Kinds>(
                     | LogLine::Note { .. }
                     | LogLine::Loop(_)
                     | LogLine::Lsl(_)
+                    | LogLine::Sound(_)
                     | LogLine::Interrupted { .. } => {}
                 }
                 valid_len = next;

@@ -32,7 +32,10 @@ pub enum Feed {
     /// Pause: a trial being presented is aborted and presented again on
     /// resume; nothing is rendered while paused.
     Pause,
-    /// Resume after [`Feed::Pause`].
+    /// Pause for a fault outside the device (a sound output lost): as
+    /// [`Feed::Pause`], the trial under way aborted with this reason.
+    Hold(String),
+    /// Resume after [`Feed::Pause`] or [`Feed::Hold`].
     Resume,
     /// Abort the session: a trial being presented is logged as aborted
     /// (and re-queued), the device stops, and the log stays open-ended so

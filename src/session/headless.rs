@@ -7,6 +7,7 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
+use super::sound::Sound;
 use super::{Feed, Responder, Run, Session, SessionError, SessionRequest, SessionState};
 use crate::interrupt::{Interrupt, Signal};
 use crate::kinds::{Header, Protocol, ReadLog};
@@ -114,7 +115,7 @@ pub fn run_simulated(
         &super::DeviceChoice::Simulated,
         sim_participant,
     )?;
-    let run = Run::new(session, req.lsl, req.masker.clone())?;
+    let run = Run::new(session, req.lsl, req.sound.clone())?;
     drive(run, req.pace, stop, progress).map(|(outcome, _)| outcome)
 }
 
@@ -147,7 +148,13 @@ pub fn run_planned<R: Responder>(
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<SessionOutcome, SessionError> {
     let session = Session::from_planned(dir, planned, &super::DeviceChoice::Simulated, responder)?;
-    drive(Run::new(session, None, None)?, pace, stop, progress).map(|(outcome, _)| outcome)
+    drive(
+        Run::new(session, None, Sound::default())?,
+        pace,
+        stop,
+        progress,
+    )
+    .map(|(outcome, _)| outcome)
 }
 
 /// Steps a session on the simulated device to its end, paced by `pace`;
@@ -173,6 +180,16 @@ fn drive<R: Responder>(
             run.hold();
         }
         run.feed(Feed::Tick)?;
+        if let Some(why) = run.sound_failed() {
+            return Err(SessionError::SoundLost {
+                why: why.to_owned(),
+                completed: run.completed(),
+            });
+        }
+        if run.state() == SessionState::Paused {
+            // Held for a lost sound output: its time stands still.
+            std::thread::sleep(Duration::from_millis(1));
+        }
         report(&run, &mut seen, progress);
         ticks += 1;
         if ticks.is_multiple_of(64) {
@@ -207,13 +224,18 @@ pub fn simulate_in_memory(sim: &Simulation<'_>, i: u32) -> Result<ReadLog, Sessi
         device: &super::DeviceChoice::Simulated,
         streams: false,
         population: sim.population,
-        masker: None,
+        sound: Sound::default(),
         lsl: None,
     };
     let (header, source) =
         super::open::new_session(&req, 1, i, <SimParticipant as Responder>::LABEL);
     let session = Session::in_memory(header, source, sim_participant)?;
-    let (_, run) = drive(Run::new(session, None, None)?, None, None, &mut |_, _| {})?;
+    let (_, run) = drive(
+        Run::new(session, None, Sound::default())?,
+        None,
+        None,
+        &mut |_, _| {},
+    )?;
     Ok(run.into_session().into_records())
 }
 
@@ -300,6 +322,11 @@ pub fn run_device_asking<R: Responder>(
     let mut seen = 0;
     loop {
         session.feed(Feed::Poll)?;
+        if let Some(why) = session.sound_failed() {
+            let (why, completed) = (why.to_owned(), session.completed());
+            session.feed(Feed::StopDevice)?;
+            return Err(SessionError::SoundLost { why, completed });
+        }
         if let Some(failure) = session.device_failure() {
             return Err(SessionError::DeviceFailed {
                 failure: failure.clone(),
@@ -470,7 +497,7 @@ pub fn simulate_participants(
             device: &super::DeviceChoice::Simulated,
             streams: sim.streams,
             population: sim.population,
-            masker: None,
+            sound: Sound::default(),
             lsl: sim.lsl,
         };
         let mut reported = 0;
@@ -525,7 +552,7 @@ mod tests {
             device: &device,
             streams: true,
             population: None,
-            masker: None,
+            sound: crate::session::sound::Sound::default(),
             lsl: None,
         };
         f(&ResultsDir::new(dir), &req)

@@ -114,6 +114,7 @@ pub mod open;
 mod renders;
 pub mod responder;
 pub mod run;
+pub mod sound;
 pub mod stream;
 pub mod view;
 
@@ -305,6 +306,16 @@ pub enum SessionError {
     /// The haptic loop could not start.
     #[error("cannot start the haptic loop: {0}")]
     Loop(std::io::Error),
+    /// A sound output was lost and not back within the run's timeout
+    /// ([`sound`]): the run stopped as for a device that failed, the trial
+    /// under way aborted and the log open for a resume.
+    #[error("{why} ({completed} trials completed are in the log)")]
+    SoundLost {
+        /// What was lost, and why it could not be opened again.
+        why: String,
+        /// Trials completed.
+        completed: usize,
+    },
     /// The device could not go on ([`Session::device_failure`]). Completed
     /// trials are in the log.
     #[error("{failure} ({completed} trials completed are in the log)")]
@@ -789,7 +800,8 @@ impl<R: Responder> Session<R> {
                 let x_m = self.sample.x_m;
                 self.input(Input::Click { x_m })
             }
-            Feed::Pause => self.pause(),
+            Feed::Pause => self.pause("paused by the experimenter"),
+            Feed::Hold(reason) => self.pause(&reason),
             Feed::Resume => self.resume(),
             Feed::Abort => self.stop_run("session aborted by the experimenter", None),
             Feed::Signal(signal) => self.stop_run(
@@ -1372,14 +1384,14 @@ impl<R: Responder> Session<R> {
         self.settle()
     }
 
-    fn pause(&mut self) -> Result<(), ResultsError> {
+    fn pause(&mut self, reason: &str) -> Result<(), ResultsError> {
         if self.state != SessionState::Running {
             return Ok(());
         }
         self.state = SessionState::Paused;
         let t = self.t;
         self.emit(|| Event::Paused { t });
-        self.interrupt("paused by the experimenter")
+        self.interrupt(reason)
     }
 
     fn resume(&mut self) -> Result<(), ResultsError> {

@@ -74,10 +74,10 @@ pub struct SessionRequest<'a> {
     /// A simulated participant's population other than the default (kept
     /// in the log header, so a resumed session has the same participant).
     pub population: Option<&'a crate::participant::Population>,
-    /// Masking noise on an output (`--masking-audio`), opened before the
-    /// session (a missing server or output writes nothing); the shell
-    /// ([`super::run::Run`]) switches it.
-    pub masker: Option<Arc<crate::audio::Masker>>,
+    /// The sound outputs (`--masking-audio`, `--tactile-audio`), opened
+    /// before the session (a missing server or output writes nothing);
+    /// the shell plays them ([`super::sound`]).
+    pub sound: super::sound::Sound,
 }
 
 /// A session checked and planned; nothing written yet.
@@ -220,7 +220,7 @@ pub fn new_session(
         responder: responder.into(),
         planned_trials: source.planned().unwrap_or(0),
         population: req.population.cloned(),
-        sound: req.masker.iter().map(|m| m.playing()).collect(),
+        sound: req.sound.playing(),
     };
     (header, source)
 }

@@ -5,19 +5,16 @@
 //! the run's end with [`Feed::Close`]). The headless runners and the window
 //! differ only in how they feed it.
 //!
-//! With masking noise ([`crate::audio::Masker`], issue 64) it switches the
-//! noise as the protocol's `masking.during` says: on from the run's start,
-//! or on at each [`Event::TrialStarted`] and off when the trial's record
-//! is [`Event::Written`]; at the run's end it ramps the noise down and
-//! closes the stream.
+//! It plays the session's sound, if it has any ([`super::sound`]): the
+//! masking noise and the tactile display, switched on the session's
+//! events, and feeds the session for their faults.
 
 use super::lsl::Publishing;
+use super::sound::{Playback, Sound};
 use super::{Event, Feed, Person, Responder, Session, SessionError, SessionRequest};
-use crate::audio::{During, Masker};
 use crate::kinds::Header;
 use crate::lsl::Streaming;
 use crate::results::{ResultsDir, ResultsError};
-use std::sync::Arc;
 
 /// A session a person runs from the window.
 pub type LiveSession = Run<Person>;
@@ -26,7 +23,7 @@ pub type LiveSession = Run<Person>;
 pub struct Run<R: Responder> {
     session: Session<R>,
     lsl: Option<Publishing>,
-    masker: Option<Arc<Masker>>,
+    sound: Option<Playback>,
 }
 
 impl<R: Responder> std::ops::Deref for Run<R> {
@@ -40,41 +37,29 @@ impl<R: Responder> std::ops::Deref for Run<R> {
 impl<R: Responder> Run<R> {
     /// Runs `session`, published on LSL with `streaming` if given (with
     /// the simulated device both streams open now; on a port when the
-    /// device is ready), with `masker`'s noise if given (on now for a
-    /// whole session's masking).
+    /// device is ready), playing `sound` ([`super::sound`]).
     ///
     /// # Errors
     /// liblsl made no outlet, or its worker could not start.
     pub fn new(
         mut session: Session<R>,
         streaming: Option<&Streaming>,
-        masker: Option<Arc<Masker>>,
+        sound: Sound,
     ) -> Result<Self, SessionError> {
         let lsl = match streaming {
             Some(streaming) => Some(Publishing::start(streaming, &mut session)?),
             None => None,
         };
-        if let Some(m) = &masker {
-            session = session.with_events();
-            m.set_on(m.masking().during == During::Session);
+        let sound = Playback::start(sound, &mut session);
+        if sound.is_some() {
+            // Its line goes in the log before the last ([`Feed::Close`]).
+            session.wait_for_shell();
         }
         Ok(Run {
             session,
             lsl,
-            masker,
+            sound,
         })
-    }
-
-    /// Switches the masking noise for `event` (see the module docs).
-    fn mask(&self, event: &Event) {
-        let Some(m) = &self.masker else { return };
-        let trials = m.masking().during == During::Trials;
-        match event {
-            Event::TrialStarted { .. } if trials => m.set_on(true),
-            Event::Written { .. } if trials => m.set_on(false),
-            Event::Finished { .. } | Event::Stopped { .. } => m.finish(),
-            _ => {}
-        }
     }
 
     /// Plans (or resumes) a session ([`Session::begin`]) and runs it,
@@ -90,7 +75,7 @@ impl<R: Responder> Run<R> {
         Run::new(
             Session::begin(dir, req, responder)?,
             req.lsl,
-            req.masker.clone(),
+            req.sound.clone(),
         )
     }
 
@@ -100,17 +85,49 @@ impl<R: Responder> Run<R> {
     /// I/O on the log or CSV; streams that could not open.
     pub fn feed(&mut self, feed: Feed) -> Result<(), ResultsError> {
         self.session.handle(feed)?;
+        self.follow()?;
+        // The sound's faults: each feed's events followed before the next.
+        while let Some(feed) = self
+            .sound
+            .as_mut()
+            .and_then(|s| s.check(std::time::Instant::now()))
+        {
+            self.session.handle(feed)?;
+            self.follow()?;
+        }
+        Ok(())
+    }
+
+    /// Why the run stopped for its sound, if it did (a lost output not
+    /// back within the timeout).
+    #[must_use]
+    pub fn sound_failed(&self) -> Option<&str> {
+        self.sound.as_ref().and_then(Playback::failed)
+    }
+
+    /// Hands the session's events to the sound and the publisher.
+    fn follow(&mut self) -> Result<(), ResultsError> {
         while let Some(event) = self.session.poll_event() {
-            self.mask(&event);
-            let Some(lsl) = &mut self.lsl else { continue };
+            if let Some(sound) = &mut self.sound {
+                sound.on(&event);
+            }
             let ends = matches!(event, Event::Finished { .. } | Event::Stopped { .. });
-            lsl.on(event, &mut self.session)
-                .map_err(|e| ResultsError::Io {
-                    path: String::new(),
-                    source: std::io::Error::other(e.to_string()),
-                })?;
-            if ends && let Some(lsl) = self.lsl.take() {
-                self.session.handle(Feed::Close(lsl.finish()))?;
+            let ready = matches!(event, Event::Ready { .. });
+            let waits = self.lsl.is_some() || self.sound.is_some();
+            if let Some(lsl) = &mut self.lsl {
+                lsl.on(event, &mut self.session)
+                    .map_err(|e| ResultsError::Io {
+                        path: String::new(),
+                        source: std::io::Error::other(e.to_string()),
+                    })?;
+            } else if ready {
+                // The sound's wait: nothing to open (its outputs are).
+                self.session.handle(Feed::Go)?;
+            }
+            if ends && waits {
+                let mut lines = self.lsl.take().map(Publishing::finish).unwrap_or_default();
+                lines.extend(self.sound.as_ref().map(Playback::stats));
+                self.session.handle(Feed::Close(lines))?;
             }
         }
         Ok(())
@@ -156,7 +173,7 @@ impl Run<Person> {
     /// As [`Run::begin`].
     pub fn start(dir: &ResultsDir, req: &SessionRequest<'_>) -> Result<Self, SessionError> {
         let session = Session::begin(dir, req, |_| Person::default())?.with_trace();
-        Run::new(session, req.lsl, req.masker.clone())
+        Run::new(session, req.lsl, req.sound.clone())
     }
 
     /// Where the mouse holds the hand, m (`None`: the pointer is away).

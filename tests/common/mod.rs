@@ -528,3 +528,12 @@ pub fn assert_force_limits(
         "{renders} renders at {limit_n} N; the header: the device's limit {device_limit_n} N, travel {travel_m:?} m"
     )
 }
+
+/// A free loopback port.
+pub fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}

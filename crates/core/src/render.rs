@@ -305,6 +305,7 @@ impl<T: Real> Renderer<T> {
                 .limit
                 .clamp(ramp * force(new) + (T::ONE - ramp) * force(old)),
             vibration: new.map_or(T::ZERO, |o| o.vibration) * ramp,
+            vibration_q: new.map_or(T::ZERO, |o| o.vibration_q) * ramp,
             phase: new.map_or(Phase::Stick, |o| o.phase),
             slip_onset: new.is_some_and(|o| o.slip_onset),
         }

@@ -492,7 +492,7 @@ mod tests {
             device: &DeviceChoice::Simulated,
             streams: false,
             population: None,
-            masker: None,
+            sound: crate::session::sound::Sound::default(),
             lsl: None,
         }
     }

@@ -164,6 +164,7 @@ impl<T: Real> Dahl<T> {
         Output {
             force_n: self.limit.clamp(-(self.f + self.viscous * input.v_m_s)),
             vibration: T::ZERO,
+            vibration_q: T::ZERO,
             phase: self.phase,
             slip_onset,
         }

@@ -416,6 +416,7 @@ impl<L: StaticFrictionLaw, T: Real> GodObject<L, T> {
         Output {
             force_n: self.limit.clamp(-coupling(self.x0, self.v0) + q),
             vibration: T::ZERO,
+            vibration_q: T::ZERO,
             phase: self.phase,
             slip_onset,
         }

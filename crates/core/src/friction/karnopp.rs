@@ -220,6 +220,7 @@ impl<T: Real> Karnopp<T> {
         Output {
             force_n: self.limit.clamp(-coupling),
             vibration: T::ZERO,
+            vibration_q: T::ZERO,
             phase: self.phase,
             slip_onset,
         }

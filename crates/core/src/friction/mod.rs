@@ -104,6 +104,13 @@ pub struct Output<T = f64> {
     pub slip_onset: bool,
     /// Vibrotactile drive in `[-1, 1]`; zero for force-only models.
     pub vibration: T,
+    /// The drive's quadrature, in `[-1, 1]`: for a carrier burst (seed
+    /// 001's), `vibration_q + i vibration` is the burst's complex envelope
+    /// `a e^(i phi)` at this step, so a player at another rate (a sound
+    /// output at 48 kHz) can synthesise the carrier between steps
+    /// ([`ModelParams::burst`]) instead of resampling a carrier the loop's
+    /// rate aliases. Zero for every other model.
+    pub vibration_q: T,
 }
 
 impl<T: Real> Output<T> {
@@ -113,6 +120,7 @@ impl<T: Real> Output<T> {
         Output {
             force_n: T::ZERO,
             vibration: T::ZERO,
+            vibration_q: T::ZERO,
             phase,
             slip_onset: false,
         }
@@ -221,6 +229,7 @@ impl Stepper {
                 Output {
                     force_n: o.force_n.to_f64(),
                     vibration: o.vibration.to_f64(),
+                    vibration_q: o.vibration_q.to_f64(),
                     phase: o.phase,
                     slip_onset: o.slip_onset,
                 }
@@ -385,6 +394,18 @@ impl ModelParams {
     #[must_use]
     pub fn has_vibration(&self) -> bool {
         matches!(self, Self::StickSlipTactile(_))
+    }
+
+    /// A carrier burst's frequency, Hz, and its envelope's decay rate,
+    /// 1/s, for a model whose drive is one (seed 001's tactile display):
+    /// between two steps the drive is `Im(z e^((i 2 pi f - d) t))`, `z`
+    /// the step's complex envelope ([`Output::vibration_q`]).
+    #[must_use]
+    pub fn burst(&self) -> Option<(f64, f64)> {
+        match self {
+            Self::StickSlipTactile(p) => Some((p.carrier_hz, 1.0 / p.envelope_time_constant_s)),
+            _ => None,
+        }
     }
 
     /// The loop rate the seed ran this model at, Hz: 5 kHz for seed 001's

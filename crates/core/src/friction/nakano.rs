@@ -348,10 +348,12 @@ impl<T: Real> Nakano<T> {
         match self.display {
             NakanoDisplay::Tactile => {
                 let vibration = (self.envelope * self.carrier.1).clamp(-T::ONE, T::ONE);
+                let vibration_q = (self.envelope * self.carrier.0).clamp(-T::ONE, T::ONE);
                 self.advance_burst();
                 Output {
                     force_n: T::ZERO,
                     vibration,
+                    vibration_q,
                     phase: self.phase,
                     slip_onset,
                 }
@@ -359,6 +361,7 @@ impl<T: Real> Nakano<T> {
             NakanoDisplay::Force => Output {
                 force_n: self.limit.clamp(-self.force_scale * self.friction),
                 vibration: T::ZERO,
+                vibration_q: T::ZERO,
                 phase: self.phase,
                 slip_onset,
             },

@@ -74,6 +74,7 @@ impl<T: Real> Viscous<T> {
         Output {
             force_n: self.limit.clamp(-self.damping_n_s_m * input.v_m_s),
             vibration: T::ZERO,
+            vibration_q: T::ZERO,
             phase,
             slip_onset,
         }

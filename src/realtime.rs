@@ -1,5 +1,6 @@
-//! Real-time scheduling for the threads that keep a device's time: the
-//! haptic loop, and an emulator's loop. A real device has a processor of
+//! Real-time scheduling for the threads that keep a device's time (the
+//! haptic loop, an emulator's loop) and a sound output's (a player's
+//! thread, issue 64). A real device has a processor of
 //! its own; an emulator shares the host's, and at normal priority a busy
 //! machine (a build beside the tests) kept it from running for 100 ms at a
 //! time: a device silent that long is a lost device, and the trial under
