@@ -522,16 +522,18 @@ impl Tactor {
         Some((d.quantile(0.5)?, d.quantile(0.99)?))
     }
 
-    /// How it went; `origin_monotonic_s`: the loop's clock origin on the
-    /// monotonic clock, if known.
+    /// How it went, with `parts` its underruns by cause
+    /// ([`Tactor::underrun_parts`] when the run's trials ended);
+    /// `origin_monotonic_s`: the loop's clock origin on the monotonic
+    /// clock, if known.
     #[must_use]
-    pub fn stats(&self, origin_monotonic_s: Option<f64>) -> StreamStats {
+    pub fn stats(&self, parts: [u64; 3], origin_monotonic_s: Option<f64>) -> StreamStats {
         let delays = self.delay_quantiles_s();
         StreamStats {
             role: Role::Tactile,
             output: self.held.output.clone(),
-            underruns: self.underruns(),
-            underrun_causes: Some(self.underrun_parts()),
+            underruns: parts.iter().sum(),
+            underrun_causes: Some(parts),
             delay_p50_s: delays.map(|d| d.0),
             delay_p99_s: delays.map(|d| d.1),
             clock_origin_monotonic_s: origin_monotonic_s,

@@ -271,8 +271,11 @@ impl TactileSource {
                 break;
             }
             let _ = self.ring.pop();
-            if self.current.t_s.is_finite() {
-                self.period_s = next.t_s - self.current.t_s;
+            // A tick at the same time as the last (the loop's clock held
+            // its ticks' times from going back) says nothing of its period.
+            let interval = next.t_s - self.current.t_s;
+            if interval.is_finite() && interval > 0.0 {
+                self.period_s = interval;
             }
             self.current = next;
         }

@@ -17,6 +17,9 @@
 //!   [`RETRY_S`] until it is back (the session resumes), or until the
 //!   run's device timeout, when the run stops as for a device that failed
 //!   (resumable).
+//! - The log's `sound` line counts the tactile display's underruns up to
+//!   the last record: when the run ends the loop stops, and the drive
+//!   running out then broke no stimulus.
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -106,6 +109,10 @@ pub(super) struct Playback {
     ended: bool,
     /// The loop's clock origin on the monotonic clock, s.
     origin_monotonic_s: Option<f64>,
+    /// The tactile display's underruns by cause when the last record was
+    /// written: what the log's line reports. The drive running out when
+    /// the run's end stops the loop is not an underrun of any stimulus.
+    parts_at_last_record: [u64; 3],
 }
 
 impl Playback {
@@ -140,6 +147,7 @@ impl Playback {
             failed: None,
             ended: false,
             origin_monotonic_s,
+            parts_at_last_record: [0; 3],
         })
     }
 
@@ -168,6 +176,7 @@ impl Playback {
             }
             Event::Written { .. } => {
                 self.in_trial = false;
+                self.parts_at_last_record = self.tactile_underruns();
                 if let Some(m) = trials {
                     m.set_on(false);
                 }
@@ -264,7 +273,7 @@ impl Playback {
             .sound
             .tactor
             .iter()
-            .map(|t| t.stats(self.origin_monotonic_s));
+            .map(|t| t.stats(self.parts_at_last_record, self.origin_monotonic_s));
         LogLine::Sound(SoundStats {
             streams: masking.chain(tactile).collect(),
         })
