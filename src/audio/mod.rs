@@ -426,9 +426,22 @@ impl Tactor {
     /// # Errors
     /// No sound server, no such output or channel, or the stream refused.
     pub fn open(output: &str, channel: usize) -> Result<Tactor, AudioError> {
+        Self::open_with(output, channel, TACTILE_BUFFER_FRAMES)
+    }
+
+    /// As [`Tactor::open`], with a buffer of `buffer_frames` (the
+    /// benchmark's comparison of buffers).
+    ///
+    /// # Errors
+    /// As [`Tactor::open`].
+    pub fn open_with(
+        output: &str,
+        channel: usize,
+        buffer_frames: u32,
+    ) -> Result<Tactor, AudioError> {
         let counts = Arc::new(tactile::Counts::default());
         let (producer, source) = tactile::source(channel, f64::from(pulse::RATE_HZ), &counts);
-        let held = Held::open(output, TACTILE_BUFFER_FRAMES, Box::new(source))?;
+        let held = Held::open(output, buffer_frames, Box::new(source))?;
         let channels = held.info().channels;
         if channel >= channels {
             return Err(AudioError::Server(format!(
