@@ -675,11 +675,18 @@ fn a_killed_server_aborts_the_trial_and_the_session_goes_on_when_it_is_back() {
         .spawn()
         .unwrap();
     let start = Instant::now();
-    while !out.join("logs").exists()
-        || frictionlab::results::read_log::<Registry>(&common_log(&out))
-            .map_or(0, |l| l.trials.len())
-            < 2
-    {
+    // The log, once it is there (its folder comes first).
+    let records = |out: &Path| {
+        let log = std::fs::read_dir(out.join("logs"))
+            .ok()?
+            .filter_map(Result::ok)
+            .map(|e| e.path())
+            .find(|p| p.to_string_lossy().ends_with("_log.jsonl"))?;
+        frictionlab::results::read_log::<Registry>(&log)
+            .ok()
+            .map(|l| l.trials.len())
+    };
+    while records(&out).unwrap_or(0) < 2 {
         assert!(start.elapsed() < Duration::from_mins(1));
         std::thread::sleep(Duration::from_millis(20));
     }

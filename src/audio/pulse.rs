@@ -239,9 +239,9 @@ impl Player {
             std::thread::Builder::new()
                 .name(format!("audio {output}"))
                 .spawn(move || {
-                    // The stream's callback runs when it is due, as the
-                    // haptic loop does (granted or not, it plays).
-                    let _ = crate::realtime::ask_fifo();
+                    // The stream's callback runs when it is due, ahead of
+                    // the loops that spin (granted or not, it plays).
+                    let _ = crate::realtime::ask_fifo_at(crate::realtime::SOUND_PRIORITY);
                     stream.run(first);
                 })
                 .map_err(|e| AudioError::Server(e.to_string()))?
