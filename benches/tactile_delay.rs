@@ -112,8 +112,13 @@ fn bench(c: &mut Criterion) {
     let _ = frictionlab::realtime::ask_fifo();
     let mut lines = Vec::new();
     for frames in [256u32, 512] {
-        let tactor = Tactor::open_with("tactile", 0, frames)
-            .unwrap_or_else(|e| panic!("the null sink: {e}"));
+        let tactor = Tactor::open_with(
+            &frictionlab::audio::Server::from_env(),
+            "tactile",
+            0,
+            frames,
+        )
+        .unwrap_or_else(|e| panic!("the null sink: {e}"));
         let origin = Instant::now();
         tactor.set_origin(origin);
         feed(&tactor, origin, Duration::from_millis(500));

@@ -11,6 +11,7 @@
     clippy::cast_precision_loss,
     clippy::cast_possible_truncation,
     clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
     reason = "tests"
 )]
 
@@ -113,6 +114,14 @@ impl Server {
         ]
     }
 
+    /// The server as the library takes it (the window's Setup).
+    fn client(&self) -> frictionlab::audio::Server {
+        frictionlab::audio::Server::at(
+            self.dir.path().join("pulse/native"),
+            self.dir.path().join("home/.config/pulse/cookie"),
+        )
+    }
+
     fn kill(&mut self) {
         if let Some(mut c) = self.child.take() {
             let _ = c.kill();
@@ -189,6 +198,18 @@ impl Recording {
             child,
             data,
             reader: Some(reader),
+        }
+    }
+
+    /// Waits until samples come (`parec` took 0.7 s to start here).
+    fn wait_for_samples(&self) {
+        let start = Instant::now();
+        while self.data.lock().unwrap().0.is_empty() {
+            assert!(
+                start.elapsed() < Duration::from_secs(20),
+                "parec records nothing"
+            );
+            std::thread::sleep(Duration::from_millis(10));
         }
     }
 
@@ -407,6 +428,105 @@ fn masking_noise_falls_3_db_per_octave_at_its_level() {
     let log = frictionlab::results::read_log::<Registry>(&common_log(&out)).unwrap();
     assert_eq!(log.header.sound.len(), 1);
     assert!(sound_line(&common_log(&out)).contains("\"underruns\":0"));
+}
+
+/// Setup's Sound (issue 64): the server's outputs listed, each with a test
+/// tone and a level meter. The test tone of the output chosen for the
+/// tactile display, on its channel 2, recorded from the sink: sample for
+/// sample the tone, 600 Hz for 0.5 s at -20 dBFS RMS (less the head the
+/// monitor misses: below), on channel 2, nothing on channel 1;
+/// the meter shows its peak, -17.0 dBFS (±0.5 dB: a sine's peak is 3.0 dB
+/// over its RMS).
+#[test]
+fn setup_lists_the_outputs_and_its_600_hz_test_tone_plays_on_the_tactile_channel_and_the_meter() {
+    use egui_kittest::kittest::Queryable;
+    let Some(server) = Server::start() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let launch = frictionlab::gui::Launch {
+        participant: "p1".into(),
+        out: dir.path().join("out"),
+        sound: frictionlab::session::sound::SoundChoice {
+            server: server.client(),
+            masking_audio: None,
+            tactile_audio: Some("tactile:2".into()),
+        },
+        ..frictionlab::gui::Launch::default()
+    };
+    let mut h = egui_kittest::Harness::builder()
+        .with_size(eframe::egui::vec2(1400.0, 1000.0))
+        .build_eframe(move |_cc| frictionlab::gui::FrictionlabApp::new(launch));
+    h.step();
+    assert!(h.query_by_label("2 outputs on the sound server").is_some());
+    assert!(h.query_by_label("Tactor (2 ch, 48000 Hz)").is_some());
+    assert!(h.query_by_label("Headphones (2 ch, 48000 Hz)").is_some());
+    // Both rows have a test tone; the tactile display's is on its channel.
+    assert_eq!(h.query_all_by_label("Test tone").count(), 1);
+    let rec = Recording::start(&server, "tactile", 2);
+    rec.wait_for_samples();
+    h.get_by_label("Test tone (channel 2)").click();
+    let mut loudest = f32::NEG_INFINITY;
+    let start = Instant::now();
+    while start.elapsed() < Duration::from_millis(1200) {
+        h.step();
+        if let Some(l) = h.state().sound_meter_dbfs("tactile") {
+            loudest = loudest.max(l);
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    let (x, _) = rec.stop();
+    let left: Vec<f64> = x.iter().step_by(2).map(|v| f64::from(*v)).collect();
+    let right: Vec<f64> = x.iter().skip(1).step_by(2).map(|v| f64::from(*v)).collect();
+    let silent = left.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    // The tone as it should be: 600 Hz at -20 dBFS RMS for 0.5 s, with
+    // raised-cosine ramps of 10 ms; `k` its sample.
+    let tone = |k: i64| -> f64 {
+        let t = k as f64 / RATE;
+        if !(0.0..0.5).contains(&t) {
+            return 0.0;
+        }
+        let e = (t.min(0.5 - t) / 0.01).min(1.0);
+        let ramp = 0.5 - 0.5 * (std::f64::consts::PI * e).cos();
+        0.1 * std::f64::consts::SQRT_2 * ramp * (2.0 * std::f64::consts::PI * 600.0 * t).sin()
+    };
+    // Aligned on its end: the recording against the tone, sample by
+    // sample, from the first sample recorded (`head`: below).
+    let last = right.iter().rposition(|v| v.abs() > 1e-4).expect("a tone") as i64;
+    let sample = |i: i64| usize::try_from(i).ok().and_then(|i| right.get(i)).copied();
+    let differs = |end: i64, from: i64| {
+        (from..24_000)
+            .map(|k| sample(end - 23_999 + k).map_or(1.0, |r| (r - tone(k)).abs()))
+            .fold(0.0f64, f64::max)
+    };
+    let end = (last - 40..=last + 40)
+        .min_by(|a, b| differs(*a, 2_400).total_cmp(&differs(*b, 2_400)))
+        .unwrap();
+    let start = end - 23_999;
+    let head = (start..end)
+        .take_while(|i| sample(*i).is_none_or(|r| r == 0.0))
+        .count();
+    let error = differs(end, head as i64);
+    let steady = &right[(start + 960) as usize..(end - 960) as usize];
+    let rms = (steady.iter().map(|v| v * v).sum::<f64>() / steady.len() as f64).sqrt();
+    let level = 20.0 * rms.log10();
+    eprintln!(
+        "test tone: 0.5 s at 600 Hz against the recording: largest difference {error:.2e} over the {} samples recorded, first {head} samples not recorded; {level:.2} dBFS RMS on channel 2, channel 1 peak {silent:e}; meter peak {loudest:.2} dBFS",
+        24_000 - head
+    );
+    // Every sample recorded is the tone's (to the null sink's 16 bits:
+    // 1.5e-5 of full scale), in order,
+    // and the tone ends whole. PulseAudio's monitor misses the head of a
+    // stream that joins a playing sink, the part of the sink's buffer it
+    // had already recorded when the sink was rewound to mix the new
+    // stream in (6, 34 and 103 samples in runs here; a sound card plays
+    // it): at most the stream's buffer, 2048 frames.
+    assert!(error < 1e-4, "differs from the tone by {error}");
+    assert!(head <= 2_048, "{head} samples missing");
+    assert!((level + 20.0).abs() <= 0.1, "{level} dBFS");
+    assert!(silent < 1e-6, "channel 1 plays {silent}");
+    assert!((f64::from(loudest) + 17.0).abs() <= 0.5, "meter {loudest}");
 }
 
 /// The session's log under `out`.

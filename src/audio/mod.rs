@@ -12,6 +12,7 @@ pub mod noise;
 #[cfg(unix)]
 pub mod pulse;
 pub mod tactile;
+pub mod tone;
 // Elsewhere no server is found (cpal's backends for macOS and Windows are
 // not yet built in: see the guide's sound page).
 #[cfg(not(unix))]
@@ -35,6 +36,44 @@ pub const BUFFER_FRAMES: u32 = 256;
 /// socket (no shared-memory channel to the sink's thread). With 512, none
 /// ran dry (issue 64's note).
 pub const TACTILE_BUFFER_FRAMES: u32 = 512;
+
+/// The sound server to play on: PulseAudio's or PipeWire's socket, as the
+/// environment names it (`PULSE_SERVER`, `PULSE_RUNTIME_PATH`,
+/// `XDG_RUNTIME_DIR`: [`Server::from_env`]), or a socket and cookie given
+/// ([`Server::at`]: a test's own server).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Server {
+    pub(crate) socket: Option<std::path::PathBuf>,
+    /// The file of the cookie that authenticates a client (default: as
+    /// the environment has it, `PULSE_COOKIE` or the user's).
+    pub(crate) cookie: Option<std::path::PathBuf>,
+}
+
+impl Server {
+    /// The server the environment names.
+    #[must_use]
+    pub fn from_env() -> Server {
+        Server::default()
+    }
+
+    /// The server listening on the Unix socket `socket`, its clients
+    /// authenticated by the cookie in the file `cookie`.
+    #[must_use]
+    pub fn at(socket: std::path::PathBuf, cookie: std::path::PathBuf) -> Server {
+        Server {
+            socket: Some(socket),
+            cookie: Some(cookie),
+        }
+    }
+
+    /// The server's outputs.
+    ///
+    /// # Errors
+    /// No sound server, or it did not answer.
+    pub fn outputs(&self) -> Result<Vec<Output>, AudioError> {
+        pulse::list(self)
+    }
+}
 
 /// An output of the sound server (a PulseAudio sink).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -152,6 +191,11 @@ pub trait Source: Send + 'static {
     fn fill(&mut self, out: &mut [f32], channels: usize, ending: bool);
     /// Whether, ending, the source has gone silent (the stream may drain).
     fn finished(&self) -> bool;
+    /// Whether it ends by itself (a test tone): once [`Source::finished`],
+    /// the stream drains and closes unasked.
+    fn ends(&self) -> bool {
+        false
+    }
     /// The server's latency for the stream as it last reported,
     /// microseconds: the queue ahead of what is filled now.
     fn latency(&mut self, _latency_us: u64) {}
@@ -218,6 +262,7 @@ impl Source for Gated {
 /// A player on an output that can be opened again after it was lost (the
 /// server restarted, the output replugged).
 struct Held {
+    server: Server,
     output: String,
     buffer_frames: u32,
     player: Mutex<pulse::Player>,
@@ -226,11 +271,17 @@ struct Held {
 }
 
 impl Held {
-    fn open(output: &str, buffer_frames: u32, source: Box<dyn Source>) -> Result<Held, AudioError> {
+    fn open(
+        server: &Server,
+        output: &str,
+        buffer_frames: u32,
+        source: Box<dyn Source>,
+    ) -> Result<Held, AudioError> {
         Ok(Held {
+            server: server.clone(),
             output: output.to_owned(),
             buffer_frames,
-            player: Mutex::new(pulse::Player::open(output, buffer_frames, source)?),
+            player: Mutex::new(pulse::Player::open(server, output, buffer_frames, source)?),
             carried: AtomicU64::new(0),
         })
     }
@@ -241,7 +292,7 @@ impl Held {
 
     /// Opens the output again with `source`, in place of the lost player.
     fn reopen(&self, source: Box<dyn Source>) -> Result<(), AudioError> {
-        let fresh = pulse::Player::open(&self.output, self.buffer_frames, source)?;
+        let fresh = pulse::Player::open(&self.server, &self.output, self.buffer_frames, source)?;
         let old = std::mem::replace(&mut *self.player(), fresh);
         self.carried.fetch_add(
             old.shared.underruns.load(Ordering::SeqCst),
@@ -298,15 +349,21 @@ impl Masker {
         })
     }
 
-    /// Opens `output` for `masking` (off until [`Masker::set_on`]), its
-    /// noise seeded by `seed`.
+    /// Opens `output` of `server` for `masking` (off until
+    /// [`Masker::set_on`]), its noise seeded by `seed`.
     ///
     /// # Errors
     /// No sound server, no such output, or the stream refused.
-    pub fn open(output: &str, masking: Masking, seed: u64) -> Result<Masker, AudioError> {
+    pub fn open(
+        server: &Server,
+        output: &str,
+        masking: Masking,
+        seed: u64,
+    ) -> Result<Masker, AudioError> {
         let gate = Arc::new(AtomicBool::new(false));
         // A longer buffer than the tactor's: noise needs no low latency.
         let held = Held::open(
+            server,
             output,
             BUFFER_FRAMES * 8,
             Self::source(masking, seed, &gate),
@@ -421,12 +478,12 @@ pub struct Tactor {
 }
 
 impl Tactor {
-    /// Opens channel `channel` (0-based) of `output`.
+    /// Opens channel `channel` (0-based) of `output` of `server`.
     ///
     /// # Errors
     /// No sound server, no such output or channel, or the stream refused.
-    pub fn open(output: &str, channel: usize) -> Result<Tactor, AudioError> {
-        Self::open_with(output, channel, TACTILE_BUFFER_FRAMES)
+    pub fn open(server: &Server, output: &str, channel: usize) -> Result<Tactor, AudioError> {
+        Self::open_with(server, output, channel, TACTILE_BUFFER_FRAMES)
     }
 
     /// As [`Tactor::open`], with a buffer of `buffer_frames` (the
@@ -435,13 +492,14 @@ impl Tactor {
     /// # Errors
     /// As [`Tactor::open`].
     pub fn open_with(
+        server: &Server,
         output: &str,
         channel: usize,
         buffer_frames: u32,
     ) -> Result<Tactor, AudioError> {
         let counts = Arc::new(tactile::Counts::default());
         let (producer, source) = tactile::source(channel, f64::from(pulse::RATE_HZ), &counts);
-        let held = Held::open(output, buffer_frames, Box::new(source))?;
+        let held = Held::open(server, output, buffer_frames, Box::new(source))?;
         let channels = held.info().channels;
         if channel >= channels {
             return Err(AudioError::Server(format!(
@@ -574,10 +632,10 @@ impl std::fmt::Debug for Tactor {
     }
 }
 
-/// The server's outputs.
+/// The outputs of the server the environment names.
 ///
 /// # Errors
 /// No sound server, or it did not answer.
 pub fn outputs() -> Result<Vec<Output>, AudioError> {
-    pulse::list()
+    Server::from_env().outputs()
 }

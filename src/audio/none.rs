@@ -4,7 +4,7 @@
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64};
 
-use super::{AudioError, Output, Source, StreamInfo};
+use super::{AudioError, Output, Server, Source, StreamInfo};
 
 /// The rate a stream would ask for, Hz.
 pub const RATE_HZ: u32 = 48_000;
@@ -17,7 +17,7 @@ fn none() -> AudioError {
 ///
 /// # Errors
 /// Always: no server.
-pub fn list() -> Result<Vec<Output>, AudioError> {
+pub fn list(_server: &Server) -> Result<Vec<Output>, AudioError> {
     Err(none())
 }
 
@@ -41,6 +41,7 @@ impl Player {
     /// # Errors
     /// Always: no server.
     pub fn open(
+        _server: &Server,
         _output: &str,
         _buffer_frames: u32,
         _source: Box<dyn Source>,
@@ -50,4 +51,10 @@ impl Player {
 
     /// Nothing to finish.
     pub fn finish(&self) {}
+
+    /// Never played.
+    #[must_use]
+    pub fn done(&self) -> bool {
+        true
+    }
 }

@@ -21,7 +21,7 @@ use std::time::SystemTime;
 
 use pulseaudio::protocol::{self, Command};
 
-use super::{AudioError, Output, Source, StreamInfo};
+use super::{AudioError, Output, Server, Source, StreamInfo};
 
 /// The rate a stream asks for, Hz (the server resamples if its output
 /// runs at another).
@@ -39,8 +39,8 @@ fn io(e: &protocol::ProtocolError) -> AudioError {
 }
 
 impl Conn {
-    fn connect() -> Result<Conn, AudioError> {
-        let path = pulseaudio::socket_path_from_env().ok_or_else(|| {
+    fn connect(server: &Server) -> Result<Conn, AudioError> {
+        let path = server.socket.clone().or_else(pulseaudio::socket_path_from_env).ok_or_else(|| {
             AudioError::NoServer(
                 "no PulseAudio or PipeWire socket (PULSE_SERVER, PULSE_RUNTIME_PATH, XDG_RUNTIME_DIR)"
                     .to_owned(),
@@ -49,7 +49,10 @@ impl Conn {
         let stream = UnixStream::connect(&path)
             .map_err(|e| AudioError::NoServer(format!("{}: {e}", path.display())))?;
         let mut sock = BufReader::new(stream);
-        let cookie = pulseaudio::cookie_path_from_env()
+        let cookie = server
+            .cookie
+            .clone()
+            .or_else(pulseaudio::cookie_path_from_env)
             .and_then(|p| std::fs::read(p).ok())
             .unwrap_or_default();
         protocol::write_command_message(
@@ -116,8 +119,12 @@ fn output_of(s: &protocol::SinkInfo) -> Output {
 ///
 /// # Errors
 /// No server, or it did not answer.
-pub fn list() -> Result<Vec<Output>, AudioError> {
-    Ok(Conn::connect()?.sinks()?.iter().map(output_of).collect())
+pub fn list(server: &Server) -> Result<Vec<Output>, AudioError> {
+    Ok(Conn::connect(server)?
+        .sinks()?
+        .iter()
+        .map(output_of)
+        .collect())
 }
 
 /// What a player's thread and its owner share.
@@ -161,11 +168,12 @@ impl Player {
     /// # Errors
     /// No server, no such output, or the server refused the stream.
     pub fn open(
+        server: &Server,
         output: &str,
         buffer_frames: u32,
         source: Box<dyn Source>,
     ) -> Result<Player, AudioError> {
-        let mut conn = Conn::connect()?;
+        let mut conn = Conn::connect(server)?;
         let sinks = conn.sinks()?;
         let Some(sink) = sinks.iter().find(|s| s.name.to_string_lossy() == output) else {
             return Err(AudioError::NoSuchOutput {
@@ -261,13 +269,7 @@ impl Player {
         self.shared.finish.store(true, Ordering::SeqCst);
         let started = std::time::Instant::now();
         while started.elapsed().as_secs_f64() < FINISH_S {
-            let done = self
-                .thread
-                .lock()
-                .unwrap_or_else(PoisonError::into_inner)
-                .as_ref()
-                .is_none_or(JoinHandle::is_finished);
-            if done {
+            if self.done() {
                 break;
             }
             std::thread::sleep(std::time::Duration::from_millis(5));
@@ -275,6 +277,17 @@ impl Player {
         self.shared.stop.store(true, Ordering::SeqCst);
         let _ = self.sock.shutdown(std::net::Shutdown::Both);
         self.join();
+    }
+
+    /// Whether its thread has ended: the stream drained (a source that
+    /// [`Source::ends`]), finished or lost.
+    #[must_use]
+    pub fn done(&self) -> bool {
+        self.thread
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .as_ref()
+            .is_none_or(JoinHandle::is_finished)
     }
 
     fn join(&self) {
@@ -377,7 +390,7 @@ impl Stream {
             self.shared.frames.fetch_add(frames, Ordering::SeqCst);
             self.since_latency += frames;
             length -= u32::try_from(n).unwrap_or(length);
-            if ending && self.source.finished() {
+            if (ending || self.source.ends()) && self.source.finished() {
                 self.draining = true;
                 self.command(TAG_DRAIN, &Command::DrainPlaybackStream(self.channel))?;
             }

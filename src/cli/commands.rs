@@ -320,6 +320,7 @@ pub(super) fn gui_command(
         interrupt: Some(interrupt.clone()),
         lsl: lsl.map(|s| s.lib),
         lsl_lib: args.lsl.lsl_lib,
+        sound: args.sound.choice(),
     })
     .map_err(|e| no_display(&e))?;
     match interrupt.signal() {
@@ -355,59 +356,11 @@ pub(super) fn ports_command() -> Result<(), Failure> {
     emit(&lines)
 }
 
-/// The masking noise `protocol` asks for, opened on `--masking-audio`
-/// before anything is written: a protocol with masking and no output, an
-/// output and no masking, no sound server or no such output is exit 2, one
-/// line. The noise is seeded by the session's plan seed.
-fn open_masker(
-    file: &Path,
-    protocol: &crate::kinds::Protocol,
-    args: &SoundArgs,
-    seed: u64,
-) -> Result<Option<std::sync::Arc<crate::audio::Masker>>, Failure> {
-    let fail = |place: &str, what: String| Err(Failure::from(vec![UserError::new(place, what)]));
-    match (&protocol.masking, &args.masking_audio) {
-        (None, None) => Ok(None),
-        (Some(m), None) => fail(
-            &format!("{}: masking", file.display()),
-            format!(
-                "the protocol plays {} noise at {} dBFS on headphones; give --masking-audio OUTPUT (`frictionlab audio` lists the outputs)",
-                serde_json::to_value(m.noise)
-                    .map(|v| v.as_str().unwrap_or_default().to_owned())
-                    .unwrap_or_default(),
-                m.level_dbfs
-            ),
-        ),
-        (None, Some(_)) => fail(
-            "--masking-audio",
-            format!("{}: the protocol has no `masking` to play", file.display()),
-        ),
-        (Some(m), Some(output)) => crate::audio::Masker::open(output, *m, seed)
-            .map(|m| Some(std::sync::Arc::new(m)))
-            .or_else(|e| fail("--masking-audio", e.to_string())),
-    }
-}
-
-/// Issue 64: sound is the headless run's for now; a sound flag with
-/// `--responder gui` is refused (exit 2), not ignored.
-fn no_sound_in_the_window(args: &SoundArgs) -> Result<(), Failure> {
-    let given = [
-        ("--masking-audio", &args.masking_audio),
-        ("--tactile-audio", &args.tactile_audio),
-    ];
-    match given.iter().find(|(_, v)| v.is_some()) {
-        Some((flag, _)) => Err(vec![UserError::new(
-            *flag,
-            "the window does not play sound yet; give --responder sim, or run without it",
-        )]
-        .into()),
-        None => Ok(()),
-    }
-}
-
-/// The sound a run plays, opened before anything is written
-/// ([`open_masker`], and `--tactile-audio` on a device): a bad channel, no
-/// server, no such output, or the simulated apparatus is exit 2, one line.
+/// The sound a run plays ([`session::sound::Sound::open`]), opened
+/// before anything is written: a protocol with masking and no
+/// `--masking-audio`, an output and no masking, `--tactile-audio` on the
+/// simulated apparatus or with a bad channel, no server or no such output
+/// is exit 2, one line. The noise is seeded by the session's plan seed.
 fn open_sound(
     file: &Path,
     protocol: &crate::kinds::Protocol,
@@ -416,27 +369,29 @@ fn open_sound(
     seed: u64,
     timeout_s: f64,
 ) -> Result<session::sound::Sound, Failure> {
-    let masker = open_masker(file, protocol, args, seed)?;
-    let fail = |what: String| Failure::from(vec![UserError::new("--tactile-audio", what)]);
-    let tactor = match &args.tactile_audio {
-        None => None,
-        Some(_) if *device == DeviceChoice::Simulated => {
-            return Err(fail(
-                "the tactile display plays a device's haptic loop, and the simulated apparatus runs none in real time; give --device (the Inverse3 emulator will do)".to_owned(),
-            ));
-        }
-        Some(text) => {
-            let (output, channel) = crate::audio::output_and_channel(text).map_err(fail)?;
-            Some(std::sync::Arc::new(
-                crate::audio::Tactor::open(&output, channel).map_err(|e| fail(e.to_string()))?,
-            ))
-        }
-    };
-    Ok(session::sound::Sound {
-        masker,
-        tactor,
-        timeout_s,
-    })
+    use session::sound::SoundError;
+    let choice = args.choice();
+    let on_device = *device != DeviceChoice::Simulated;
+    session::sound::Sound::open(protocol.masking, &choice, on_device, seed, timeout_s).map_err(
+        |e| {
+            let (place, what) = match &e {
+                SoundError::NoMaskingOutput { noise, level_dbfs } => (
+                    format!("{}: masking", file.display()),
+                    format!(
+                        "the protocol plays {noise} noise at {level_dbfs} dBFS on headphones; give --masking-audio OUTPUT (`frictionlab audio` lists the outputs)"
+                    ),
+                ),
+                SoundError::NoMasking => ("--masking-audio".to_owned(), format!("{}: {e}", file.display())),
+                SoundError::Masking(_) => ("--masking-audio".to_owned(), e.to_string()),
+                SoundError::TactileWithoutDevice => (
+                    "--tactile-audio".to_owned(),
+                    format!("{e}; give --device (the Inverse3 emulator will do)"),
+                ),
+                SoundError::Tactile(_) => ("--tactile-audio".to_owned(), e.to_string()),
+            };
+            Failure::from(vec![UserError::new(&place, what)])
+        },
+    )
 }
 
 /// `audio`: the sound server's outputs, a line each; no server is exit 2.
@@ -805,7 +760,6 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
         }
     };
     if args.responder == ResponderChoice::Gui {
-        no_sound_in_the_window(&args.sound)?;
         // A person answers: the experimenter window opens with this session
         // started (or resumed).
         return gui_command(
@@ -816,6 +770,7 @@ pub(super) fn run_command(args: &RunArgs) -> Result<(), Failure> {
                 device: args.device.clone(),
                 start: false,
                 lsl: args.lsl.clone(),
+                sound: args.sound.clone(),
             },
             Some(crate::gui::AutoStart {
                 resume: args.resume,

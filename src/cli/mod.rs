@@ -80,6 +80,8 @@ struct GuiArgs {
     start: bool,
     #[command(flatten)]
     lsl: LslArgs,
+    #[command(flatten)]
+    sound: SoundArgs,
 }
 
 /// Publishing on the Lab Streaming Layer (issue 34).
@@ -115,6 +117,17 @@ struct SoundArgs {
     /// haptic loop (not `--device sim`).
     #[arg(long, value_name = "OUTPUT[:CHANNEL]")]
     tactile_audio: Option<String>,
+}
+
+impl SoundArgs {
+    /// What they ask to play, on the server the environment names.
+    fn choice(&self) -> crate::session::sound::SoundChoice {
+        crate::session::sound::SoundChoice {
+            server: crate::audio::Server::from_env(),
+            masking_audio: self.masking_audio.clone(),
+            tactile_audio: self.tactile_audio.clone(),
+        }
+    }
 }
 
 /// `run --pace` when not given: real time.
@@ -576,6 +589,7 @@ pub fn main() -> ExitCode {
                 device: DeviceChoice::Simulated,
                 start: false,
                 lsl: LslArgs::default(),
+                sound: SoundArgs::default(),
             },
             None,
         ));

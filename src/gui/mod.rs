@@ -30,6 +30,7 @@ mod plot;
 mod results;
 mod session;
 mod setup;
+mod sound;
 
 use std::path::PathBuf;
 
@@ -70,6 +71,9 @@ pub struct Launch {
     /// The liblsl `--lsl-lib` named, for a session published when the box
     /// is checked in the window.
     pub lsl_lib: Option<PathBuf>,
+    /// The sound server, and the outputs `--masking-audio` and
+    /// `--tactile-audio` chose (Setup's Sound starts with them).
+    pub sound: crate::session::sound::SoundChoice,
 }
 
 /// A session started as the window opens.
@@ -96,6 +100,7 @@ impl Default for Launch {
             interrupt: None,
             lsl: None,
             lsl_lib: None,
+            sound: crate::session::sound::SoundChoice::default(),
         }
     }
 }
@@ -174,6 +179,8 @@ pub(crate) enum Command {
     CheckConfirm,
     /// Stop the check, or close the one that has ended.
     CheckClose,
+    /// Setup's Sound: list the outputs, play a test tone.
+    Sound(sound::SoundAction),
 }
 
 /// The experimenter's panels when no session is open.
@@ -255,6 +262,13 @@ impl FrictionlabApp {
     #[must_use]
     pub fn workspace(&self) -> Option<egui::Rect> {
         self.canvas
+    }
+
+    /// Setup's level meter of the sound output `output`, dBFS peak
+    /// (`None`: silent).
+    #[must_use]
+    pub fn sound_meter_dbfs(&self, output: &str) -> Option<f32> {
+        self.setup.sound.meter_dbfs(output)
     }
 
     /// Frame-time statistics.
@@ -344,9 +358,10 @@ impl FrictionlabApp {
                     self.session.new_session();
                 })
             }),
-            Command::CheckDevice | Command::CheckConfirm | Command::CheckClose => {
-                self.apply_check(&command)
-            }
+            Command::CheckDevice
+            | Command::CheckConfirm
+            | Command::CheckClose
+            | Command::Sound(_) => self.apply_setup(&command),
             Command::SaveNote => match self.session.note_to_save() {
                 None => Ok(()),
                 Some(text) => {
@@ -363,9 +378,13 @@ impl FrictionlabApp {
         }
     }
 
-    /// The bring-up check's commands.
-    fn apply_check(&mut self, command: &Command) -> Result<(), String> {
+    /// The commands of the bring-up check and of Setup's Sound.
+    fn apply_setup(&mut self, command: &Command) -> Result<(), String> {
         match command {
+            Command::Sound(action) => {
+                self.setup.sound.apply(action.clone());
+                Ok(())
+            }
             Command::CheckDevice => self.setup.start_check().map(|c| {
                 self.check = Some(c);
                 self.error = None;
@@ -479,6 +498,11 @@ impl eframe::App for FrictionlabApp {
             if matches!(live.state(), SessionState::Running | SessionState::Paused) {
                 ctx.request_repaint();
             }
+        }
+        self.setup.sound.pump(now);
+        if self.setup.sound.busy() {
+            // The meter falls as time passes.
+            ctx.request_repaint();
         }
         if let Some(check) = &mut self.check {
             check.pump();

@@ -84,7 +84,10 @@ impl SessionPanel {
                 }
             }
             SessionState::Paused => {
-                if ui.button("Resume").clicked() {
+                // Held for a lost sound output: it resumes when the output
+                // is back.
+                let held = live.sound_lost_for_s().is_some();
+                if ui.add_enabled(!held, egui::Button::new("Resume")).clicked() {
                     commands.push(Command::Resume);
                 }
                 if ui.button("Abort session").clicked() {
@@ -109,6 +112,15 @@ impl SessionPanel {
                 });
         }
         device_asks(ui, live, &mut commands);
+        if let Some(s) = live.sound_lost_for_s() {
+            ui.label(
+                RichText::new(format!(
+                    "A sound output is lost ({s:.0} s): the trial under way was aborted and will be presented again; the session goes on when the output is back"
+                ))
+                .color(super::ERROR_RED)
+                .strong(),
+            );
+        }
         device_line(ui, live);
         ui.checkbox(&mut self.fullscreen, "Participant window full screen");
         let label = ui.label("Note for the session log");

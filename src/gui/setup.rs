@@ -82,6 +82,9 @@ pub(super) struct SetupPanel {
     /// (an emulated device), and how long it measures the loop, s.
     check_sim: bool,
     check_duration_s: f64,
+    /// The sound outputs, their test tones and meters, and what a session
+    /// plays on (issue 64).
+    pub(super) sound: super::sound::SoundPanel,
 }
 
 impl SetupPanel {
@@ -103,6 +106,7 @@ impl SetupPanel {
             chooser: None,
             check_sim: false,
             check_duration_s: crate::device::check::DEFAULT_DURATION_S,
+            sound: super::sound::SoundPanel::new(launch.sound),
         };
         match launch.protocol {
             Some(path) => {
@@ -248,6 +252,13 @@ impl SetupPanel {
         {
             problems.push("choose a device".to_owned());
         }
+        let masking = self
+            .loaded
+            .as_ref()
+            .ok()
+            .and_then(|l| l.protocol.masking.as_ref());
+        let device = matches!(self.device, DeviceChoice::Device(_));
+        problems.extend(self.sound.problems(masking, device));
         problems
     }
 
@@ -272,15 +283,18 @@ impl SetupPanel {
         let (true, Ok(loaded)) = (problems.is_empty(), &self.loaded) else {
             return Err(format!("cannot start: {}", problems.join("; ")));
         };
-        if let Some(m) = &loaded.protocol.masking {
-            // Issue 64: the window does not play sound yet, and a session
-            // that asks for masking never runs without it.
-            return Err(format!(
-                "cannot start: the protocol plays masking noise ({} dBFS); the window cannot play sound yet: run it with `frictionlab run PROTOCOL --masking-audio OUTPUT`",
-                m.level_dbfs
-            ));
-        }
         let seed = self.parsed_seed()?.unwrap_or_else(rand::random::<u64>);
+        // The outputs open before anything is written. A lost output holds
+        // the session until it is back, however long: the experimenter
+        // sees why and may abort it.
+        let sound = crate::session::sound::Sound::open(
+            loaded.protocol.masking,
+            &self.sound.choice(),
+            matches!(self.device, DeviceChoice::Device(_)),
+            seed,
+            f64::INFINITY,
+        )
+        .map_err(|e| format!("cannot start: sound: {e}"))?;
         let participant = self.participant.trim().to_owned();
         let lsl = match (&self.lsl, &self.lsl_lib) {
             (false, _) => None,
@@ -304,7 +318,7 @@ impl SetupPanel {
             device: &self.device,
             streams: true,
             population: None,
-            sound: crate::session::sound::Sound::default(),
+            sound,
             lsl: lsl.as_ref(),
         };
         let dir = ResultsDir::new(self.out.trim());
@@ -451,6 +465,10 @@ impl SetupPanel {
                 ui.end_row();
                 ui.label("Device");
                 self.device_picker(ui, &mut commands);
+                ui.end_row();
+                ui.label("Sound");
+                let masking = self.loaded.as_ref().ok().and_then(|l| l.protocol.masking);
+                commands.extend(self.sound.ui(ui, masking.as_ref()));
                 ui.end_row();
                 ui.label("Session");
                 self.session_choice(ui, &mut commands);

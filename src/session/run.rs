@@ -105,6 +105,13 @@ impl<R: Responder> Run<R> {
         self.sound.as_ref().and_then(Playback::failed)
     }
 
+    /// How long a sound output has been lost, s, while it is: the session
+    /// is held until it is back.
+    #[must_use]
+    pub fn sound_lost_for_s(&self) -> Option<f64> {
+        self.sound.as_ref().and_then(Playback::lost_for_s)
+    }
+
     /// Hands the session's events to the sound and the publisher.
     fn follow(&mut self) -> Result<(), ResultsError> {
         while let Some(event) = self.session.poll_event() {

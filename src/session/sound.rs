@@ -24,7 +24,7 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use crate::audio::{During, Masker, Playing, SoundStats, Tactor};
+use crate::audio::{AudioError, During, Masker, Masking, Playing, Server, SoundStats, Tactor};
 use crate::device::haptic::{Offer, SampleSink, Tick};
 use crate::kinds::LogLine;
 use crate::protocol::engine::Input;
@@ -52,7 +52,100 @@ pub struct Sound {
     pub timeout_s: f64,
 }
 
+/// What a shell asks to play: the CLI's `--masking-audio` and
+/// `--tactile-audio`, or the window's Setup.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct SoundChoice {
+    /// The server to play on.
+    pub server: Server,
+    /// The output for the protocol's masking noise.
+    pub masking_audio: Option<String>,
+    /// The tactile display: `OUTPUT[:CHANNEL]`, the channel from 1.
+    pub tactile_audio: Option<String>,
+}
+
+/// Why a session's sound cannot open: the session does not start.
+#[derive(Debug, thiserror::Error)]
+pub enum SoundError {
+    /// The protocol plays masking noise and no output was given for it.
+    #[error(
+        "the protocol plays {noise} noise at {level_dbfs} dBFS on headphones, and no output was chosen for it"
+    )]
+    NoMaskingOutput {
+        /// `pink` or `white`.
+        noise: &'static str,
+        /// Its level, dBFS.
+        level_dbfs: f64,
+    },
+    /// An output was given for masking, and the protocol has none.
+    #[error("the protocol has no `masking` to play")]
+    NoMasking,
+    /// The masking noise's output did not open.
+    #[error("{0}")]
+    Masking(AudioError),
+    /// The tactile display asked of the simulated apparatus.
+    #[error(
+        "the tactile display plays a device's haptic loop, and the simulated apparatus runs none in real time"
+    )]
+    TactileWithoutDevice,
+    /// The tactile display's output did not open (or its channel is not
+    /// one).
+    #[error("{0}")]
+    Tactile(String),
+}
+
 impl Sound {
+    /// Opens what `choice` asks for a session of a protocol with
+    /// `masking`, on a device (`device`) or the simulated apparatus, its
+    /// noise seeded by `seed`; a lost output may stay lost `timeout_s`.
+    /// Nothing is played until the session starts ([`Playback`]).
+    ///
+    /// # Errors
+    /// A protocol with masking and no output for it, or an output and no
+    /// masking; the tactile display without a device; no sound server, no
+    /// such output or channel.
+    pub fn open(
+        masking: Option<Masking>,
+        choice: &SoundChoice,
+        device: bool,
+        seed: u64,
+        timeout_s: f64,
+    ) -> Result<Sound, SoundError> {
+        let masker = match (masking, &choice.masking_audio) {
+            (None, None) => None,
+            (Some(m), None) => {
+                return Err(SoundError::NoMaskingOutput {
+                    noise: match m.noise {
+                        crate::audio::NoiseColor::Pink => "pink",
+                        crate::audio::NoiseColor::White => "white",
+                    },
+                    level_dbfs: m.level_dbfs,
+                });
+            }
+            (None, Some(_)) => return Err(SoundError::NoMasking),
+            (Some(m), Some(output)) => Some(Arc::new(
+                Masker::open(&choice.server, output, m, seed).map_err(SoundError::Masking)?,
+            )),
+        };
+        let tactor = match &choice.tactile_audio {
+            None => None,
+            Some(_) if !device => return Err(SoundError::TactileWithoutDevice),
+            Some(text) => {
+                let (output, channel) =
+                    crate::audio::output_and_channel(text).map_err(SoundError::Tactile)?;
+                Some(Arc::new(
+                    Tactor::open(&choice.server, &output, channel)
+                        .map_err(|e| SoundError::Tactile(e.to_string()))?,
+                ))
+            }
+        };
+        Ok(Sound {
+            masker,
+            tactor,
+            timeout_s,
+        })
+    }
+
     /// What the log's header keeps of the streams.
     #[must_use]
     pub fn playing(&self) -> Vec<Playing> {
@@ -277,6 +370,11 @@ impl Playback {
         LogLine::Sound(SoundStats {
             streams: masking.chain(tactile).collect(),
         })
+    }
+
+    /// How long an output has been lost, s, while it is.
+    pub(super) fn lost_for_s(&self) -> Option<f64> {
+        self.lost_since.map(|t| t.elapsed().as_secs_f64())
     }
 
     /// Why the run stopped for its sound, if it did.
