@@ -13,6 +13,7 @@
 /// normal scheduling, and everything works as before, only less punctually
 /// on a busy machine).
 #[must_use]
+#[cfg(unix)]
 pub fn ask_fifo() -> bool {
     thread_priority::set_thread_priority_and_policy(
         thread_priority::thread_native_id(),
@@ -34,6 +35,7 @@ pub const SOUND_PRIORITY: u8 = 5;
 
 /// As [`ask_fifo`], at priority `priority` (1 to 99 under SCHED_FIFO).
 #[must_use]
+#[cfg(unix)]
 pub fn ask_fifo_at(priority: u8) -> bool {
     let Ok(value) = thread_priority::ThreadPriorityValue::try_from(priority) else {
         return false;
@@ -46,4 +48,18 @@ pub fn ask_fifo_at(priority: u8) -> bool {
         ),
     )
     .is_ok()
+}
+
+/// Windows has no SCHED_FIFO: the thread keeps its priority.
+#[must_use]
+#[cfg(not(unix))]
+pub fn ask_fifo() -> bool {
+    false
+}
+
+/// Windows has no SCHED_FIFO: the thread keeps its priority.
+#[must_use]
+#[cfg(not(unix))]
+pub fn ask_fifo_at(_priority: u8) -> bool {
+    false
 }

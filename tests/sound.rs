@@ -902,8 +902,49 @@ fn a_killed_server_aborts_the_trial_and_the_session_goes_on_when_it_is_back() {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
-    let protocol = masked_protocol(dir.path(), r#"{"noise": "white", "level_dbfs": -30}"#, 1);
     let out = dir.path().join("out");
+    let child = kill_in_the_third_trial(&mut server, dir.path(), "30");
+    // Back 2 s later.
+    std::thread::sleep(Duration::from_secs(2));
+    server.up();
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let log = frictionlab::results::read_log::<Registry>(&common_log(&out)).unwrap();
+    let lost = lost_trials(&log);
+    eprintln!(
+        "records {}, aborted for the lost output: {lost:?}; {}",
+        log.trials.len(),
+        sound_line(&common_log(&out))
+    );
+    assert_eq!(lost.len(), 1, "one trial aborted");
+    let completed = completed_trials(&log);
+    assert_eq!(completed.len(), log.header.planned_trials);
+    assert!(completed.contains(&lost[0]), "presented again");
+}
+
+/// The trials aborted for a lost output.
+fn lost_trials(log: &frictionlab::kinds::ReadLog) -> Vec<usize> {
+    log.trials
+        .iter()
+        .filter(|r| r.abort_reason.as_deref() == Some("sound output lost"))
+        .map(|r| r.trial)
+        .collect()
+}
+
+fn completed_trials(log: &frictionlab::kinds::ReadLog) -> Vec<usize> {
+    log.trials
+        .iter()
+        .filter(|r| r.status == frictionlab::protocol::engine::Status::Completed)
+        .map(|r| r.trial)
+        .collect()
+}
+
+/// A paced masked session (magnitude-quick, white noise, the simulated
+/// apparatus) with `--device-timeout timeout`, under `dir/out`, its
+/// server killed 0.5 s into its third trial: the run, still going.
+fn kill_in_the_third_trial(server: &mut Server, dir: &Path, timeout: &str) -> Child {
+    let protocol = masked_protocol(dir, r#"{"noise": "white", "level_dbfs": -30}"#, 1);
+    let out = dir.join("out");
     let mut args = run_args(protocol.to_str().unwrap(), out.to_str().unwrap());
     args.extend([
         "--masking-audio",
@@ -911,9 +952,9 @@ fn a_killed_server_aborts_the_trial_and_the_session_goes_on_when_it_is_back() {
         "--pace",
         "1",
         "--device-timeout",
-        "30",
+        timeout,
     ]);
-    let child = frictionlab(Some(&server), &args)
+    let child = frictionlab(Some(server), &args)
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
@@ -934,32 +975,49 @@ fn a_killed_server_aborts_the_trial_and_the_session_goes_on_when_it_is_back() {
         assert!(start.elapsed() < Duration::from_mins(1));
         std::thread::sleep(Duration::from_millis(20));
     }
-    // Into the third trial, then the server dies, and is back 2 s later.
     std::thread::sleep(Duration::from_millis(500));
     server.kill();
-    std::thread::sleep(Duration::from_secs(2));
-    server.up();
+    child
+}
+
+/// An output lost for longer than `--device-timeout` (2 s) stops the run
+/// as a device that failed: exit 3, one line saying so, the trial under
+/// way aborted; `--resume` once the server is back completes the session.
+#[test]
+fn a_server_gone_past_the_timeout_stops_the_run_with_exit_3_and_it_resumes() {
+    let Some(mut server) = Server::start() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let child = kill_in_the_third_trial(&mut server, dir.path(), "2");
+    let killed = Instant::now();
     let o = child.wait_with_output().unwrap();
+    let waited = killed.elapsed();
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    let log = frictionlab::results::read_log::<Registry>(&common_log(&out)).unwrap();
+    eprintln!(
+        "exit {:?} {:.1} s after the kill: {err}records {}, aborted for the lost output: {:?}",
+        o.status.code(),
+        waited.as_secs_f64(),
+        log.trials.len(),
+        lost_trials(&log)
+    );
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains("a sound output was lost and not back within 2 s"),
+        "{err}"
+    );
+    assert!(waited >= Duration::from_secs(2), "held for the timeout");
+    assert_eq!(lost_trials(&log).len(), 1);
+    // Back, and resumed: every trial completed.
+    server.up();
+    let protocol = dir.path().join("masked.json");
+    let mut args = run_args(protocol.to_str().unwrap(), out.to_str().unwrap());
+    args.extend(["--masking-audio", "masking", "--pace", "20", "--resume"]);
+    let o = frictionlab(Some(&server), &args).output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let log = frictionlab::results::read_log::<Registry>(&common_log(&out)).unwrap();
-    let lost: Vec<usize> = log
-        .trials
-        .iter()
-        .filter(|r| r.abort_reason.as_deref() == Some("sound output lost"))
-        .map(|r| r.trial)
-        .collect();
-    eprintln!(
-        "records {}, aborted for the lost output: {lost:?}; {}",
-        log.trials.len(),
-        sound_line(&common_log(&out))
-    );
-    assert_eq!(lost.len(), 1, "one trial aborted");
-    let completed: Vec<usize> = log
-        .trials
-        .iter()
-        .filter(|r| r.status == frictionlab::protocol::engine::Status::Completed)
-        .map(|r| r.trial)
-        .collect();
-    assert_eq!(completed.len(), log.header.planned_trials);
-    assert!(completed.contains(&lost[0]), "presented again");
+    assert_eq!(completed_trials(&log).len(), log.header.planned_trials);
 }

@@ -8,16 +8,20 @@
 //! is an error before anything is written, and watches it during the
 //! session ([`Masker::lost`], [`Masker::underruns`]).
 
+// The players: PulseAudio's protocol on Linux (and the other Unixes),
+// cpal on macOS and Windows; elsewhere no server is found.
+#[cfg(any(target_os = "macos", windows))]
+#[path = "cpal.rs"]
+pub mod backend;
+#[cfg(not(any(unix, windows)))]
+#[path = "none.rs"]
+pub mod backend;
+#[cfg(all(unix, not(target_os = "macos")))]
+#[path = "pulse.rs"]
+pub mod backend;
 pub mod noise;
-#[cfg(unix)]
-pub mod pulse;
 pub mod tactile;
 pub mod tone;
-// Elsewhere no server is found (cpal's backends for macOS and Windows are
-// not yet built in: see the guide's sound page).
-#[cfg(not(unix))]
-#[path = "none.rs"]
-pub mod pulse;
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
@@ -36,6 +40,40 @@ pub const BUFFER_FRAMES: u32 = 256;
 /// socket (no shared-memory channel to the sink's thread). With 512, none
 /// ran dry (issue 64's note).
 pub const TACTILE_BUFFER_FRAMES: u32 = 512;
+
+/// A player's thread, as its owner holds it (every backend's).
+pub(crate) struct Worker(Mutex<Option<std::thread::JoinHandle<()>>>);
+
+impl Worker {
+    pub(crate) fn new(thread: std::thread::JoinHandle<()>) -> Worker {
+        Worker(Mutex::new(Some(thread)))
+    }
+
+    /// Whether the thread has ended.
+    pub(crate) fn done(&self) -> bool {
+        self.0
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .as_ref()
+            .is_none_or(std::thread::JoinHandle::is_finished)
+    }
+
+    /// Waits until the thread has ended by itself, at most `most_s`.
+    pub(crate) fn wait(&self, most_s: f64) {
+        let started = std::time::Instant::now();
+        while started.elapsed().as_secs_f64() < most_s && !self.done() {
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+    }
+
+    /// Joins the thread (once told to stop).
+    pub(crate) fn join(&self) {
+        let thread = self.0.lock().unwrap_or_else(PoisonError::into_inner).take();
+        if let Some(t) = thread {
+            let _ = t.join();
+        }
+    }
+}
 
 /// The sound server to play on: PulseAudio's or PipeWire's socket, as the
 /// environment names it (`PULSE_SERVER`, `PULSE_RUNTIME_PATH`,
@@ -71,7 +109,7 @@ impl Server {
     /// # Errors
     /// No sound server, or it did not answer.
     pub fn outputs(&self) -> Result<Vec<Output>, AudioError> {
-        pulse::list(self)
+        backend::list(self)
     }
 }
 
@@ -265,7 +303,7 @@ struct Held {
     server: Server,
     output: String,
     buffer_frames: u32,
-    player: Mutex<pulse::Player>,
+    player: Mutex<backend::Player>,
     /// Underruns of the players before this one.
     carried: AtomicU64,
 }
@@ -281,18 +319,23 @@ impl Held {
             server: server.clone(),
             output: output.to_owned(),
             buffer_frames,
-            player: Mutex::new(pulse::Player::open(server, output, buffer_frames, source)?),
+            player: Mutex::new(backend::Player::open(
+                server,
+                output,
+                buffer_frames,
+                source,
+            )?),
             carried: AtomicU64::new(0),
         })
     }
 
-    fn player(&self) -> MutexGuard<'_, pulse::Player> {
+    fn player(&self) -> MutexGuard<'_, backend::Player> {
         self.player.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
     /// Opens the output again with `source`, in place of the lost player.
     fn reopen(&self, source: Box<dyn Source>) -> Result<(), AudioError> {
-        let fresh = pulse::Player::open(&self.server, &self.output, self.buffer_frames, source)?;
+        let fresh = backend::Player::open(&self.server, &self.output, self.buffer_frames, source)?;
         let old = std::mem::replace(&mut *self.player(), fresh);
         self.carried.fetch_add(
             old.shared.underruns.load(Ordering::SeqCst),
@@ -344,7 +387,12 @@ impl Masker {
             NoiseColor::White => noise::Color::White,
         };
         Box::new(Gated {
-            noise: noise::Masking::new(color, masking.level_dbfs, f64::from(pulse::RATE_HZ), seed),
+            noise: noise::Masking::new(
+                color,
+                masking.level_dbfs,
+                f64::from(backend::RATE_HZ),
+                seed,
+            ),
             gate: gate.clone(),
         })
     }
@@ -498,7 +546,7 @@ impl Tactor {
         buffer_frames: u32,
     ) -> Result<Tactor, AudioError> {
         let counts = Arc::new(tactile::Counts::default());
-        let (producer, source) = tactile::source(channel, f64::from(pulse::RATE_HZ), &counts);
+        let (producer, source) = tactile::source(channel, f64::from(backend::RATE_HZ), &counts);
         let held = Held::open(server, output, buffer_frames, Box::new(source))?;
         let channels = held.info().channels;
         if channel >= channels {
@@ -554,7 +602,7 @@ impl Tactor {
     /// As [`Tactor::open`].
     pub fn reopen(&self) -> Result<(), AudioError> {
         let (producer, source) =
-            tactile::source(self.channel, f64::from(pulse::RATE_HZ), &self.counts);
+            tactile::source(self.channel, f64::from(backend::RATE_HZ), &self.counts);
         self.held.reopen(Box::new(source))?;
         self.feed.replace(producer);
         Ok(())

@@ -15,13 +15,12 @@ use std::ffi::CString;
 use std::io::BufReader;
 use std::os::unix::net::UnixStream;
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
-use std::sync::{Arc, Mutex, PoisonError};
-use std::thread::JoinHandle;
+use std::sync::Arc;
 use std::time::SystemTime;
 
 use pulseaudio::protocol::{self, Command};
 
-use super::{AudioError, Output, Server, Source, StreamInfo};
+use super::{AudioError, Output, Server, Source, StreamInfo, Worker};
 
 /// The rate a stream asks for, Hz (the server resamples if its output
 /// runs at another).
@@ -148,7 +147,7 @@ pub(super) struct Shared {
 /// One playback stream on an output, and its thread: see the module docs.
 pub struct Player {
     pub(super) shared: Arc<Shared>,
-    thread: Mutex<Option<JoinHandle<()>>>,
+    thread: Worker,
     sock: UnixStream,
     pub(super) info: StreamInfo,
 }
@@ -256,7 +255,7 @@ impl Player {
         };
         Ok(Player {
             shared,
-            thread: Mutex::new(Some(thread)),
+            thread: Worker::new(thread),
             sock,
             info,
         })
@@ -267,38 +266,17 @@ impl Player {
     /// asking for sound is cut off). At once if the player was lost.
     pub fn finish(&self) {
         self.shared.finish.store(true, Ordering::SeqCst);
-        let started = std::time::Instant::now();
-        while started.elapsed().as_secs_f64() < FINISH_S {
-            if self.done() {
-                break;
-            }
-            std::thread::sleep(std::time::Duration::from_millis(5));
-        }
+        self.thread.wait(FINISH_S);
         self.shared.stop.store(true, Ordering::SeqCst);
         let _ = self.sock.shutdown(std::net::Shutdown::Both);
-        self.join();
+        self.thread.join();
     }
 
     /// Whether its thread has ended: the stream drained (a source that
     /// [`Source::ends`]), finished or lost.
     #[must_use]
     pub fn done(&self) -> bool {
-        self.thread
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .as_ref()
-            .is_none_or(JoinHandle::is_finished)
-    }
-
-    fn join(&self) {
-        let thread = self
-            .thread
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .take();
-        if let Some(t) = thread {
-            let _ = t.join();
-        }
+        self.thread.done()
     }
 }
 
@@ -306,7 +284,7 @@ impl Drop for Player {
     fn drop(&mut self) {
         self.shared.stop.store(true, Ordering::SeqCst);
         let _ = self.sock.shutdown(std::net::Shutdown::Both);
-        self.join();
+        self.thread.join();
     }
 }
 

@@ -5,7 +5,7 @@
 
 use std::sync::atomic::Ordering;
 
-use super::{AudioError, Server, Source, pulse};
+use super::{AudioError, Server, Source, backend};
 
 /// The tone's frequency, Hz: seed 001's vibrotactile burst.
 pub const TONE_HZ: f64 = 600.0;
@@ -79,7 +79,7 @@ impl Source for Tone {
 
 /// The test tone playing on an output; dropped, it stops.
 pub struct TestTone {
-    player: pulse::Player,
+    player: backend::Player,
 }
 
 impl TestTone {
@@ -95,12 +95,13 @@ impl TestTone {
     ) -> Result<TestTone, AudioError> {
         let tone = Tone {
             frame: 0,
-            rate_hz: f64::from(pulse::RATE_HZ),
+            rate_hz: f64::from(backend::RATE_HZ),
             channel,
         };
         // Latency does not matter here, an underrun would: the masking
         // noise's buffer.
-        let player = pulse::Player::open(server, output, super::BUFFER_FRAMES * 8, Box::new(tone))?;
+        let player =
+            backend::Player::open(server, output, super::BUFFER_FRAMES * 8, Box::new(tone))?;
         let channels = player.info.channels;
         if let Some(c) = channel.filter(|c| *c >= channels) {
             return Err(AudioError::Server(format!(
