@@ -356,16 +356,6 @@ impl Held {
         self.player().info.clone()
     }
 
-    fn latency_s(&self) -> f64 {
-        #[allow(clippy::cast_precision_loss)]
-        let us = self.player().shared.latency_us.load(Ordering::SeqCst) as f64;
-        us * 1e-6
-    }
-
-    fn peak(&self) -> f32 {
-        f32::from_bits(self.player().shared.peak.load(Ordering::SeqCst))
-    }
-
     fn finish(&self) {
         self.player().finish();
     }
@@ -621,12 +611,6 @@ impl Tactor {
         }
     }
 
-    /// The server's latency for the stream now, s (0 until it reports).
-    #[must_use]
-    pub fn server_latency_s(&self) -> f64 {
-        self.held.latency_s()
-    }
-
     /// From now on, measure the delay from tick to output against the
     /// loop's clock, which started at `origin` (its ticks' `now_s`).
     pub fn set_origin(&self, origin: std::time::Instant) {
@@ -657,12 +641,6 @@ impl Tactor {
             delay_p99_s: delays.map(|d| d.1),
             clock_origin_monotonic_s: origin_monotonic_s,
         }
-    }
-
-    /// The largest |sample| of the buffer played last.
-    #[must_use]
-    pub fn peak(&self) -> f32 {
-        self.held.peak()
     }
 
     /// Ramps down, plays out what is buffered and closes.

@@ -123,12 +123,6 @@ impl TestTone {
     pub fn done(&self) -> bool {
         self.player.done()
     }
-
-    /// Whether its output or server went away while it played.
-    #[must_use]
-    pub fn lost(&self) -> bool {
-        self.player.shared.lost.load(Ordering::SeqCst)
-    }
 }
 
 impl std::fmt::Debug for TestTone {
