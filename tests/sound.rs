@@ -27,11 +27,23 @@ const BIN: &str = env!("CARGO_BIN_EXE_frictionlab");
 const RATE: f64 = 48_000.0;
 
 /// A PulseAudio server of the test's own, with two stereo null sinks at
-/// 48 kHz: `tactile` and `masking`.
+/// 48 kHz: `tactile` and `masking`. One at a time: see [`ONE_SERVER`].
 struct Server {
     dir: tempfile::TempDir,
     child: Option<Child>,
+    _alone: std::sync::MutexGuard<'static, ()>,
 }
+
+/// Held by each [`Server`] while it lives: the tests with a sound server
+/// run one at a time, as a lab's machine runs one session. A server's
+/// main thread and a session's players run at real-time priority (the
+/// design: a busy core takes nothing from them), so a second test's server
+/// and sessions beside a first compete with its sound at the same
+/// priority or above, which no busy core does. Two at a time (the
+/// realtime binary's tests, as CI runs them) with one core busy, the 60 s
+/// session's server ran dry with no stall of the machine in the trial, in
+/// 3 of 4 runs; one at a time, in none of 5 (issue 64's note).
+static ONE_SERVER: Mutex<()> = Mutex::new(());
 
 impl Server {
     /// Started, or `None` (a skip outside CI, a failure under it) when
@@ -53,6 +65,11 @@ impl Server {
         let mut server = Server {
             dir: tempfile::tempdir().unwrap(),
             child: None,
+            // A test that failed while holding it left nothing behind: its
+            // server was killed as it dropped.
+            _alone: ONE_SERVER
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner),
         };
         std::fs::create_dir_all(server.dir.path().join("home")).unwrap();
         server.up();
@@ -802,8 +819,13 @@ impl Stalls {
 /// device tests'): the display says so and the trial is presented again.
 /// With one core busy and the machine otherwise idle nothing at all was
 /// aborted here; with both cores busy the loop ran late (issue 64's note).
+/// Beside another test's sound server the rule does not hold: its threads
+/// take the processor at the same real-time priority ([`ONE_SERVER`]).
+/// With both cores busy it still failed now and then, with no stall
+/// of the machine in the trial (not even one over 0.3 ms): the cause is
+/// open (issue 64's note), and the test is ignored meanwhile.
 #[test]
-#[ignore = "issue 64, open: with both cores busy (.ci/repeat's load beside the test's own spinner) the server ran dry with no stall of the machine seen, failing 2 of 5 runs (1 and 3 such aborts); it passed in the fresh-clone CI runs, idle and beside a build, and idle with one core busy"]
+#[ignore = "issue 64: with both cores busy (.ci/repeat's load beside the test's own spinner) the server still ran dry with no stall of the machine, in 1 of 5 runs one at a time (3 of 4 two at a time, before ONE_SERVER); with one core busy it has not failed; the cause is not found"]
 fn a_paced_60_s_session_underruns_only_where_the_machine_or_the_loop_stalled() {
     let Some(server) = Server::start() else {
         return;
