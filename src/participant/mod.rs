@@ -37,6 +37,7 @@
 //! uninterrupted one.
 
 mod movement;
+pub mod ofc;
 pub mod percept;
 pub mod population;
 
