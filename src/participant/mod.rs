@@ -36,6 +36,7 @@
 //! trial), and a resumed session gets the same answers as an
 //! uninterrupted one.
 
+pub mod limb;
 mod movement;
 pub mod ofc;
 pub mod percept;

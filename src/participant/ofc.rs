@@ -99,8 +99,10 @@ const MAX_STEPS: usize = 100_000;
 /// Most alternations of the two passes.
 const MAX_ALTERNATIONS: usize = 200;
 
-fn settled(old: &DMatrix<f64>, new: &DMatrix<f64>) -> bool {
-    (old - new).norm() <= TOLERANCE * new.norm().max(1e-300)
+/// Whether `new` is within [`TOLERANCE`] of `old`, relative to `scale`'s
+/// size (a matrix that tends to zero settles against its scale).
+fn settled(old: &DMatrix<f64>, new: &DMatrix<f64>, scale: f64) -> bool {
+    (old - new).norm() <= TOLERANCE * scale.max(1e-300)
 }
 
 impl Plant {
@@ -173,7 +175,8 @@ impl Plant {
                 + &closed * &xe * kh.transpose()
                 + &kh * xe.transpose() * closed.transpose();
             let new_xe = &closed * &xe * gap.transpose() - &self.internal;
-            let done = settled(&k, &new_k) && settled(&e, &new_e);
+            let done =
+                settled(&k, &new_k, new_k.norm().max(1.0)) && settled(&e, &new_e, new_e.norm());
             (k, e, x, xe) = (new_k, new_e, new_x, new_xe);
             if !e.iter().all(|v| v.is_finite()) {
                 break;
@@ -207,7 +210,10 @@ impl Plant {
                 * &self.a;
             let new_se = self.a.transpose() * &sx * &self.b * &new_l + gap.transpose() * &se * &gap;
             let new_sx = &cost.q + self.a.transpose() * &sx * (&self.a - &self.b * &new_l);
-            let done = settled(&l, &new_l);
+            // Settled when the gain and the cost-to-go have stopped
+            // changing; the first steps can leave the gain at zero while
+            // the cost on the position works its way to the command.
+            let done = settled(&l, &new_l, new_l.norm()) && settled(&sx, &new_sx, new_sx.norm());
             (l, sx, se) = (new_l, new_sx, new_se);
             if !sx.iter().all(|v| v.is_finite()) {
                 break;
@@ -235,7 +241,7 @@ pub fn solve(plant: &Plant, cost: &Cost) -> Result<Gains, OfcError> {
     for _ in 0..MAX_ALTERNATIONS {
         let (k, _) = plant.filter_for(&l)?;
         let new_l = plant.controller_for(cost, &k)?;
-        if settled(&l, &new_l) {
+        if settled(&l, &new_l, new_l.norm()) {
             let (filter, error) = plant.filter_for(&new_l)?;
             return Ok(Gains {
                 control: new_l,
