@@ -105,6 +105,15 @@ fn settled(old: &DMatrix<f64>, new: &DMatrix<f64>, scale: f64) -> bool {
     (old - new).norm() <= TOLERANCE * scale.max(1e-300)
 }
 
+/// The forward pass's second moments: the estimation error's `E[e e']`,
+/// the estimate's `E[x̂ x̂']`, and their cross moment.
+#[derive(Debug, Clone)]
+struct Moments {
+    e: DMatrix<f64>,
+    x: DMatrix<f64>,
+    xe: DMatrix<f64>,
+}
+
 impl Plant {
     fn check(&self, cost: &Cost) -> Result<(), OfcError> {
         let (m, p, k) = (self.a.nrows(), self.b.ncols(), self.h.nrows());
@@ -148,14 +157,21 @@ impl Plant {
     /// The filter that is optimal for controller `l`, at its fixed point,
     /// and the prediction error's covariance (Todorov 2005's forward pass,
     /// run until it settles).
-    fn filter_for(&self, l: &DMatrix<f64>) -> Result<(DMatrix<f64>, DMatrix<f64>), OfcError> {
+    /// Starts from `moments` (the last pass's fixed point, when there
+    /// was one: the passes of successive alternations settle near each
+    /// other) and leaves its own fixed point there.
+    fn filter_for(
+        &self,
+        l: &DMatrix<f64>,
+        moments: &mut Moments,
+    ) -> Result<(DMatrix<f64>, DMatrix<f64>), OfcError> {
         let m = self.a.nrows();
         let closed = &self.a - &self.b * l;
-        let (mut e, mut x, mut xe) = (
-            DMatrix::<f64>::identity(m, m) * 1e-6,
-            DMatrix::<f64>::zeros(m, m),
-            DMatrix::<f64>::zeros(m, m),
-        );
+        let Moments {
+            mut e,
+            mut x,
+            mut xe,
+        } = moments.clone();
         let mut k = DMatrix::zeros(m, self.h.nrows());
         for _ in 0..MAX_STEPS {
             let innovation = &self.h * &e * self.h.transpose() + &self.sensor;
@@ -182,6 +198,11 @@ impl Plant {
                 break;
             }
             if done {
+                *moments = Moments {
+                    e: e.clone(),
+                    x,
+                    xe,
+                };
                 return Ok((k, e));
             }
         }
@@ -189,11 +210,17 @@ impl Plant {
     }
 
     /// The controller that is optimal for filter `k`, at its fixed point
-    /// (Todorov 2005's backward pass, run until it settles).
-    fn controller_for(&self, cost: &Cost, k: &DMatrix<f64>) -> Result<DMatrix<f64>, OfcError> {
+    /// (Todorov 2005's backward pass, run until it settles), from and to
+    /// `to_go` as [`Plant::filter_for`] does with its moments.
+    fn controller_for(
+        &self,
+        cost: &Cost,
+        k: &DMatrix<f64>,
+        to_go: &mut (DMatrix<f64>, DMatrix<f64>),
+    ) -> Result<DMatrix<f64>, OfcError> {
         let m = self.a.nrows();
         let gap = &self.a - k * &self.h;
-        let (mut sx, mut se) = (cost.q.clone(), DMatrix::<f64>::zeros(m, m));
+        let (mut sx, mut se) = to_go.clone();
         let mut l = DMatrix::zeros(self.b.ncols(), m);
         for _ in 0..MAX_STEPS {
             let bt = self.b.transpose();
@@ -219,6 +246,7 @@ impl Plant {
                 break;
             }
             if done {
+                *to_go = (sx, se);
                 return Ok(l);
             }
         }
@@ -238,11 +266,17 @@ pub fn solve(plant: &Plant, cost: &Cost) -> Result<Gains, OfcError> {
     // Todorov's initialisation: the filter of the loop with no command
     // (L = 0), then alternate.
     let mut l = DMatrix::zeros(plant.b.ncols(), m);
+    let mut moments = Moments {
+        e: DMatrix::identity(m, m) * 1e-6,
+        x: DMatrix::zeros(m, m),
+        xe: DMatrix::zeros(m, m),
+    };
+    let mut to_go = (cost.q.clone(), DMatrix::zeros(m, m));
     for _ in 0..MAX_ALTERNATIONS {
-        let (k, _) = plant.filter_for(&l)?;
-        let new_l = plant.controller_for(cost, &k)?;
+        let (k, _) = plant.filter_for(&l, &mut moments)?;
+        let new_l = plant.controller_for(cost, &k, &mut to_go)?;
         if settled(&l, &new_l, new_l.norm()) {
-            let (filter, error) = plant.filter_for(&new_l)?;
+            let (filter, error) = plant.filter_for(&new_l, &mut moments)?;
             return Ok(Gains {
                 control: new_l,
                 filter,
