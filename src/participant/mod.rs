@@ -16,6 +16,9 @@
 //!   fractions (paired comparison).
 //! - Magnitude exploration: the hand strokes sinusoidally (its own amplitude
 //!   and rate) for its own exploration time (at most the protocol's).
+//! - [`ofc`] and [`limb`]: stochastic optimal feedback control of the hand
+//!   and handle (Todorov 2005; Qian et al. 2013), the aimed movement issue
+//!   65 builds; tested on their own, not yet driving the Fitts hand.
 //!
 //! # Between-participant variation
 //! Every participant draws its hand impedance, motor noise, perceptual noise
