@@ -17,8 +17,9 @@
 //! - Magnitude exploration: the hand strokes sinusoidally (its own amplitude
 //!   and rate) for its own exploration time (at most the protocol's).
 //! - [`ofc`] and [`limb`]: stochastic optimal feedback control of the hand
-//!   and handle (Todorov 2005; Qian et al. 2013), the aimed movement issue
-//!   65 builds; tested on their own, not yet driving the Fitts hand.
+//!   and handle (Todorov 2005; Qian et al. 2013), and [`click`], the click
+//!   from the participant's own estimate: the aimed movement issue 65
+//!   builds; tested on their own, not yet driving the Fitts hand.
 //!
 //! # Between-participant variation
 //! Every participant draws its hand impedance, motor noise, perceptual noise
@@ -39,6 +40,7 @@
 //! trial), and a resumed session gets the same answers as an
 //! uninterrupted one.
 
+pub mod click;
 pub mod limb;
 mod movement;
 pub mod ofc;
