@@ -1,0 +1,44 @@
+//! Speed of the simulated participant's feedback controller (issue 65,
+//! `cargo bench --bench ofc`): one steady-state solve of the limb with a
+//! 50 ms sensory delay (30 states; `participant::limb`), which each
+//! participant will need once. A replay of 20 participants can afford
+//! seconds; a power curve's thousands of participants cannot, so this is
+//! the number to bring down before the controller drives the Fitts hand.
+
+use std::hint::black_box;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use frictionlab::participant::limb::Limb;
+use frictionlab::participant::ofc::solve;
+
+fn limb() -> Limb {
+    Limb {
+        mass_kg: 1.0,
+        muscle_tau_s: 0.04,
+        step_s: 0.01,
+        delay_s: 0.05,
+        command_noise: 0.5,
+        motor_sd_n: 0.01,
+        sense_sd: [1e-4, 1e-3, 0.1],
+        load_drift_n: 0.01,
+        load_memory_s: 10.0,
+        distance_weight: 1e4,
+        effort_weight: 1e-3,
+    }
+}
+
+fn bench(c: &mut Criterion) {
+    let (plant, cost) = limb().plant();
+    if let Err(e) = solve(&plant, &cost) {
+        panic!("the benchmark's limb has no controller: {e}");
+    }
+    let mut group = c.benchmark_group("ofc");
+    group.sample_size(10);
+    group.bench_function("solve limb, 50 ms delay (30 states)", |b| {
+        b.iter(|| solve(black_box(&plant), black_box(&cost)));
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
