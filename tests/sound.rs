@@ -42,7 +42,8 @@ struct Server {
 /// priority or above, which no busy core does. Two at a time (the
 /// realtime binary's tests, as CI runs them) with one core busy, the 60 s
 /// session's server ran dry with no stall of the machine in the trial, in
-/// 3 of 4 runs; one at a time, in none of 5 (issue 64's note).
+/// 3 of 4 runs; one at a time (`.ci/repeat -n 5 sound`), in 1 of 5
+/// (issue 64's note).
 static ONE_SERVER: Mutex<()> = Mutex::new(());
 
 impl Server {
