@@ -326,6 +326,8 @@ fn bad_power_input_is_refused_with_its_place() {
         r#"{"paired_preference": {"condition": "time_varying", "p": 1.5}}"#,
     )
     .unwrap();
+    let bad_f = tmp.path().join("bad-feedback.json");
+    std::fs::write(&bad_f, r#"{"feedback": {"click_criterion": [0.9, 1.0]}}"#).unwrap();
     let cases: Vec<(Vec<&str>, &str)> = vec![
         (
             vec!["--participants", "8,4"],
@@ -345,6 +347,10 @@ fn bad_power_input_is_refused_with_its_place() {
         (
             vec!["--population", bad_p.to_str().unwrap()],
             "$.paired_preference.p: must be in [0, 1]",
+        ),
+        (
+            vec!["--population", bad_f.to_str().unwrap()],
+            "$.feedback.click_criterion: must be below 1",
         ),
     ];
     for (extra, expected) in cases {

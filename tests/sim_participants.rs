@@ -17,6 +17,7 @@
 
 use std::collections::BTreeMap;
 
+use frictionlab::participant::Population;
 use frictionlab::protocol::load::parse;
 use frictionlab::results::ResultsDir;
 use frictionlab::session::{Simulation, simulate_participants};
@@ -34,6 +35,17 @@ fn simulate(name: &str, n: u32, seed: u64, edit: impl FnOnce(&mut Value)) -> Vec
 
 /// Like [`simulate`], with the aborted (timed-out) trials too.
 fn simulate_all(name: &str, n: u32, seed: u64, edit: impl FnOnce(&mut Value)) -> Vec<Row> {
+    simulate_population(name, n, seed, None, edit)
+}
+
+/// Like [`simulate_all`], with a population other than the default.
+fn simulate_population(
+    name: &str,
+    n: u32,
+    seed: u64,
+    population: Option<&Population>,
+    edit: impl FnOnce(&mut Value),
+) -> Vec<Row> {
     let text = std::fs::read_to_string(format!(
         "{}/protocols/{name}.json",
         env!("CARGO_MANIFEST_DIR")
@@ -54,7 +66,7 @@ fn simulate_all(name: &str, n: u32, seed: u64, edit: impl FnOnce(&mut Value)) ->
             pace: None,
             streams: false,
             jobs: 2,
-            population: None,
+            population,
             stop: None,
             lsl: None,
         },
@@ -231,32 +243,61 @@ fn viscosity_is_judged_from_force_over_velocity() {
     );
 }
 
-#[test]
-fn baseline_movement_time_grows_with_the_index_of_difficulty() {
-    let rows = simulate("fitts", 6, 9, |v| {
-        let conds = v["design"]["conditions"].as_array().unwrap().clone();
-        v["design"]["conditions"] = json!(
-            conds
-                .into_iter()
-                .filter(|c| c["id"] == "baseline")
-                .collect::<Vec<_>>()
-        );
-        v["design"]["practice"] = json!([]);
-        v["design"]["practice_levels"] = json!([]);
-    });
+/// Keeps only the Fitts protocol's baseline condition, without practice.
+fn baseline_only(v: &mut Value) {
+    let conds = v["design"]["conditions"].as_array().unwrap().clone();
+    v["design"]["conditions"] = json!(
+        conds
+            .into_iter()
+            .filter(|c| c["id"] == "baseline")
+            .collect::<Vec<_>>()
+    );
+    v["design"]["practice"] = json!([]);
+    v["design"]["practice_levels"] = json!([]);
+}
+
+/// The mean movement time per index of difficulty (ms-rounded bits).
+fn mean_mt_by_id(rows: &[Row]) -> Vec<(f64, f64)> {
     let mut by: BTreeMap<i64, Vec<f64>> = BTreeMap::new();
-    for r in &rows {
+    for r in rows {
         by.entry((num(r, "id_bits") * 1000.0).round() as i64)
             .or_default()
             .push(num(r, "completion_time_s") / (num(r, "taps") - 1.0));
     }
-    let means: Vec<(f64, f64)> = by
-        .into_iter()
+    by.into_iter()
         .map(|(id, v)| (id as f64 / 1000.0, v.iter().sum::<f64>() / v.len() as f64))
-        .collect();
+        .collect()
+}
+
+#[test]
+fn baseline_movement_time_grows_with_the_index_of_difficulty() {
+    let rows = simulate("fitts", 6, 9, baseline_only);
+    let means = mean_mt_by_id(&rows);
     assert_eq!(means.len(), 9);
     let r = pearson(&means);
     assert!(r * r > 0.8, "r² of mean MT on ID = {}", r * r);
+}
+
+/// The feedback-controlled Fitts hand (issue 65, a population with
+/// `feedback`): it clicks in every baseline test, down to the 1 mm
+/// tolerances (no test times out), and its movement time grows with the
+/// index of difficulty, with no duration set anywhere in it.
+#[test]
+fn the_feedback_hand_completes_every_baseline_test_and_slows_with_difficulty() {
+    let population: Population = serde_json::from_str(r#"{"feedback": {}}"#).unwrap();
+    let rows = simulate_population("fitts", 6, 9, Some(&population), baseline_only);
+    assert_eq!(rows.len(), 6 * 9);
+    let aborted: Vec<&Row> = rows.iter().filter(|r| r["status"] != "completed").collect();
+    assert!(aborted.is_empty(), "{} tests timed out", aborted.len());
+    let means = mean_mt_by_id(&rows);
+    assert_eq!(means.len(), 9);
+    let r = pearson(&means);
+    assert!(r * r > 0.8, "r² of mean MT on ID = {}", r * r);
+    let (first, last) = (means[0].1, means[8].1);
+    assert!(
+        last > first,
+        "MT {first} s at the easiest, {last} s at the hardest"
+    );
 }
 
 /// Fitts' logarithm is not written in the participant. Since issue 44 a

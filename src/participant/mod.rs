@@ -16,10 +16,12 @@
 //!   fractions (paired comparison).
 //! - Magnitude exploration: the hand strokes sinusoidally (its own amplitude
 //!   and rate) for its own exploration time (at most the protocol's).
-//! - [`ofc`] and [`limb`]: stochastic optimal feedback control of the hand
-//!   and handle (Todorov 2005; Qian et al. 2013), and [`click`], the click
-//!   from the participant's own estimate: the aimed movement issue 65
-//!   builds; tested on their own, not yet driving the Fitts hand.
+//! - [`feedback`] (with [`Population::feedback`]; issue 65): the other
+//!   Fitts hand. [`ofc`]'s stochastic optimal feedback controller (Todorov
+//!   2005; Qian et al. 2013) moves the equilibrium point of [`limb`]'s
+//!   hand from delayed, noisy senses, correcting during the movement, and
+//!   [`click`] clicks from the participant's own estimate. Not the default
+//!   until it copes with friction (`docs/guide/validation.md`).
 //!
 //! # Between-participant variation
 //! Every participant draws its hand impedance, motor noise, perceptual noise
@@ -41,6 +43,7 @@
 //! uninterrupted one.
 
 pub mod click;
+mod feedback;
 pub mod limb;
 mod movement;
 pub mod ofc;
@@ -57,6 +60,7 @@ use crate::protocol::engine::{Action, Answer, Choice, Input, Question, Screen};
 use crate::protocol::kind::{Kinds, Quality};
 use crate::protocol::plan::PlannedTrial;
 use crate::time::Time;
+pub use feedback::Controller;
 pub use movement::{MAX_CORRECTIONS, Planner};
 use movement::{Step, Tap};
 use percept::{Acuity, Desk, Features, Felt, SLIDE_REST_S, SLIDE_S};
@@ -104,6 +108,16 @@ pub struct Traits {
     pub hand_integral: f64,
     /// Motor noise `K` of the aim's SD `K D / T`, s.
     pub motor_noise_s: f64,
+    /// Whether its Fitts hand is the feedback controller
+    /// ([`Population::feedback`]) rather than optimised submovements.
+    pub feedback: bool,
+    /// The noise of the feedback controller's command, SD per unit of
+    /// command.
+    pub command_noise: f64,
+    /// The controller's weight on its squared command, s².
+    pub effort_weight: f64,
+    /// The probability of being inside at which it clicks.
+    pub click_criterion: f64,
     /// Time to press, and to release, the button, s.
     pub button_s: f64,
     /// Visual feedback delay, s.
@@ -161,6 +175,11 @@ impl Traits {
         let velocity = u(p.velocity_weber);
         let viscosity_exponent = u(p.viscosity_exponent);
         let stiffness_exponent = u(p.stiffness_exponent);
+        // The feedback hand's, drawn whether it is used or not.
+        let f = p.feedback.clone().unwrap_or_default();
+        let command_noise = u(f.command_noise);
+        let effort_weight = u(f.effort_weight);
+        let click_criterion = u(f.click_criterion);
         Traits {
             exponent,
             viscosity_exponent,
@@ -175,6 +194,10 @@ impl Traits {
             hand_damping_n_s_m,
             hand_integral: 3000.0,
             motor_noise_s,
+            feedback: p.feedback.is_some(),
+            command_noise,
+            effort_weight,
+            click_criterion,
             button_s: p.button_s,
             feedback_s,
             position_sd_m,
@@ -241,6 +264,10 @@ pub struct SimParticipant {
     /// Its movement planner, made at its first Fitts test (a function of
     /// its traits only).
     planner: Option<Arc<Planner>>,
+    /// Its feedback controller (with [`Traits::feedback`]), solved at its
+    /// first Fitts test (a function of its traits only); `Err` when none
+    /// exists for its traits.
+    controller: Option<Result<Arc<Controller>, ofc::OfcError>>,
 }
 
 #[derive(Debug, Clone)]
@@ -252,6 +279,8 @@ enum Behaviour {
     Explore(Explore),
     Slide(Box<Slide>),
     Tap(Box<Tap>),
+    /// A Fitts test under the feedback controller.
+    Reach(Box<feedback::Tap>),
 }
 
 #[derive(Debug, Clone)]
@@ -372,6 +401,7 @@ impl SimParticipant {
             desk: None,
             preference: population.paired_preference.clone(),
             planner: None,
+            controller: None,
         }
     }
 
@@ -518,29 +548,53 @@ impl SimParticipant {
         w_eff: f64,
     ) -> Reaction {
         let mut behaviour = std::mem::replace(&mut self.behaviour, Behaviour::Idle);
-        if let Behaviour::Tap(tap) = &mut behaviour {
-            let (traits, s) = (self.traits, self.local(now));
-            if tap.next_target(&traits, lit_other[0], w_eff, s, |sd| self.normal(sd)) {
+        let (traits, s) = (self.traits, self.local(now));
+        let changed = match &mut behaviour {
+            Behaviour::Tap(tap) => {
+                Some(tap.next_target(&traits, lit_other[0], w_eff, s, |sd| self.normal(sd)))
+            }
+            Behaviour::Reach(reach) => Some(reach.next_target(&traits, lit_other[0], w_eff, s)),
+            _ => None,
+        };
+        self.behaviour = behaviour;
+        if let Some(changed) = changed {
+            if changed {
                 self.segment = self.segment.wrapping_add(1);
             }
-            self.behaviour = behaviour;
             return Reaction::default();
         }
         // A new test: the hand starts at rest on the first lit target.
         self.start_trial(trial, now);
         let t = self.traits;
-        let planner = self
-            .planner
-            .get_or_insert_with(|| {
-                let limb = movement::settling_s(
-                    t.hand_mass_kg,
-                    t.hand_stiffness_n_m,
-                    t.hand_damping_n_s_m,
-                );
-                Arc::new(Planner::new(t.motor_noise_s, t.feedback_s, limb))
-            })
-            .clone();
-        self.behaviour = Behaviour::Tap(Box::new(Tap::start(planner, lit_other, w_eff, 0.0)));
+        self.behaviour = if t.feedback {
+            let controller = self
+                .controller
+                .get_or_insert_with(|| {
+                    Controller::new(&t, crate::device::sim::Apparatus::default().mass_kg)
+                        .map(Arc::new)
+                })
+                .clone();
+            match controller {
+                Ok(c) => Behaviour::Reach(Box::new(feedback::Tap::start(c, lit_other, w_eff, 0.0))),
+                // No controller for these traits (a population far outside
+                // the defaults): the hand stays relaxed and the test runs
+                // to its timeout, which the log records.
+                Err(_) => Behaviour::Idle,
+            }
+        } else {
+            let planner = self
+                .planner
+                .get_or_insert_with(|| {
+                    let limb = movement::settling_s(
+                        t.hand_mass_kg,
+                        t.hand_stiffness_n_m,
+                        t.hand_damping_n_s_m,
+                    );
+                    Arc::new(Planner::new(t.motor_noise_s, t.feedback_s, limb))
+                })
+                .clone();
+            Behaviour::Tap(Box::new(Tap::start(planner, lit_other, w_eff, 0.0)))
+        };
         Reaction {
             inputs: vec![],
             reset_to: Some(lit_other[0]),
@@ -569,6 +623,7 @@ impl SimParticipant {
                 self.segment,
             ),
             Behaviour::Tap(tap) => tap.drive(t, self.local(now), self.segment),
+            Behaviour::Reach(reach) => reach.drive(self.segment),
         }
     }
 
@@ -634,17 +689,28 @@ impl SimParticipant {
             Behaviour::Slide(sl) => self.slide_tick(sl, now, sample),
             Behaviour::Tap(tap) => {
                 let (traits, s) = (self.traits, self.local(now));
-                match tap.decide(&traits, s, sample.x_m, sample.v_m_s, |sd| self.normal(sd)) {
-                    Step::Wait => Reaction::default(),
-                    Step::Click(x_m) => Reaction {
-                        inputs: vec![Input::Click { x_m }],
-                        reset_to: None,
-                    },
-                }
+                Self::click(tap.decide(&traits, s, sample.x_m, sample.v_m_s, |sd| self.normal(sd)))
+            }
+            Behaviour::Reach(reach) => {
+                let (traits, s) = (self.traits, self.local(now));
+                Self::click(
+                    reach.decide(&traits, s, sample.x_m, sample.v_m_s, |sd| self.normal(sd)),
+                )
             }
         };
         self.behaviour = behaviour;
         reaction
+    }
+
+    /// The reaction to a Fitts hand's step.
+    fn click(step: Step) -> Reaction {
+        match step {
+            Step::Wait => Reaction::default(),
+            Step::Click(x_m) => Reaction {
+                inputs: vec![Input::Click { x_m }],
+                reset_to: None,
+            },
+        }
     }
 
     fn slide_tick(&mut self, sl: &mut Slide, now: Time, sample: &DeviceSample) -> Reaction {

@@ -257,6 +257,7 @@ pub struct Tap {
 }
 
 /// What the participant does after a tick.
+#[derive(Debug, Clone, Copy)]
 pub enum Step {
     /// Keep moving or waiting.
     Wait,
