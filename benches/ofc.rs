@@ -1,9 +1,12 @@
 //! Speed of the simulated participant's feedback controller (issue 65,
 //! `cargo bench --bench ofc`): one steady-state solve of the limb with a
 //! 50 ms sensory delay (21 states; `participant::limb`), which each
-//! participant will need once. A replay of 20 participants can afford
-//! seconds; a power curve's thousands of participants cannot, so this is
-//! the number to bring down before the controller drives the Fitts hand.
+//! participant with the feedback hand (`participant::feedback`) needs
+//! once. A replay of 20 participants can afford seconds; a power curve's
+//! thousands of participants cannot, so this is the number to bring down
+//! before that hand is the default (10.6 ms median at the issue-65
+//! sitting that made it 21 states and 1e-7 tolerant; 346.7 ms at 30 states
+//! and 1e-10).
 
 use std::hint::black_box;
 

