@@ -4,32 +4,21 @@
 //! participant with the feedback hand (`participant::feedback`) needs
 //! once. A replay of 20 participants can afford seconds; a power curve's
 //! thousands of participants cannot, so this is the number to bring down
-//! before that hand is the default (10.6 ms median at the issue-65
-//! sitting that made it 21 states and 1e-7 tolerant; 346.7 ms at 30 states
-//! and 1e-10).
+//! before that hand is the default. Medians: 6.2 ms for this default
+//! participant's limb; 10.6 ms for the earlier bench's hand-written limb
+//! at 21 states and 1e-7 tolerance, 346.7 ms at 30 states and 1e-10.
 
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use frictionlab::participant::limb::Limb;
 use frictionlab::participant::ofc::solve;
+use frictionlab::participant::{Population, Traits};
 
+/// A default participant's limb on seed 002's handle, as the feedback
+/// hand solves it.
 fn limb() -> Limb {
-    Limb {
-        mass_kg: 1.0,
-        stiffness_n_m: 500.0,
-        damping_n_s_m: 20.0,
-        muscle_tau_s: 0.04,
-        step_s: 0.01,
-        delay_s: 0.05,
-        command_noise: 0.5,
-        command_sd_m: 1e-5,
-        sense_sd: [1e-4, 1e-3, 0.1],
-        load_drift_n: 0.01,
-        load_memory_s: 10.0,
-        distance_weight: 1e4,
-        effort_weight: 1e-2,
-    }
+    Traits::draw(3504, "sim-002", &Population::default()).limb(0.692)
 }
 
 fn bench(c: &mut Criterion) {

@@ -243,19 +243,12 @@ impl Prediction {
 
 /// One participant's controller: its limb, the plant its internal model
 /// is, and the steady-state gains (a function of its traits only, solved
-/// once and shared by its tests: 10.6 ms, `cargo bench --bench ofc`).
+/// once and shared by its tests: 6.2 ms, `cargo bench --bench ofc`).
 #[derive(Debug, Clone)]
 pub struct Controller {
     limb: Limb,
     plant: Plant,
     gains: Gains,
-    /// The filter of the equilibrium point and the command over a step:
-    /// the rows and columns of [`EQUILIBRIUM`], [`STAGE`], [`COMMAND`] of
-    /// the plant's `A`, and their `B` (the true limb's own).
-    filter_a: [[f64; 3]; 3],
-    filter_b: [f64; 3],
-    /// The button press this controller's predictions look ahead, s.
-    ahead_s: f64,
     /// The position a press ahead, as the participant predicts it.
     prediction: Prediction,
     /// The position now, as the participant estimates it (a prediction of
@@ -270,38 +263,21 @@ impl Controller {
     /// # Errors
     /// When no steady-state controller exists for these traits.
     pub fn new(traits: &Traits, handle_kg: f64) -> Result<Self, OfcError> {
-        Self::with_press(traits, handle_kg, traits.button_s)
-    }
-
-    /// As [`Controller::new`], predicting `ahead_s` ahead.
-    fn with_press(traits: &Traits, handle_kg: f64, ahead_s: f64) -> Result<Self, OfcError> {
         let limb = traits.limb(handle_kg);
         let (plant, cost) = limb.plant();
         let gains = solve(&plant, &cost)?;
-        let idx = [EQUILIBRIUM, STAGE, COMMAND];
-        let mut filter_a = [[0.0; 3]; 3];
-        let mut filter_b = [0.0; 3];
-        for (r, &i) in idx.iter().enumerate() {
-            for (c, &j) in idx.iter().enumerate() {
-                filter_a[r][c] = plant.a[(i, j)];
-            }
-            filter_b[r] = plant.b[(i, 0)];
-        }
         #[expect(
             clippy::cast_possible_truncation,
             clippy::cast_sign_loss,
             reason = "a press of at most seconds, in 10 ms steps"
         )]
-        let steps = (ahead_s / limb.step_s).round().clamp(0.0, 1000.0) as usize;
+        let steps = (traits.button_s / limb.step_s).round().clamp(0.0, 1000.0) as usize;
         let prediction = Prediction::new(&plant, &gains, steps);
         let present = Prediction::new(&plant, &gains, 0);
         Ok(Controller {
             limb,
             plant,
             gains,
-            filter_a,
-            filter_b,
-            ahead_s,
             prediction,
             present,
         })
@@ -311,12 +287,6 @@ impl Controller {
     #[must_use]
     pub fn limb(&self) -> &Limb {
         &self.limb
-    }
-
-    /// How far ahead its predictions look, s.
-    #[must_use]
-    pub fn ahead_s(&self) -> f64 {
-        self.ahead_s
     }
 
     /// Where the participant predicts the cursor a press ahead of
@@ -495,11 +465,17 @@ impl Tap {
         // muscle's filter.
         let command =
             u[0] + normal(l.command_noise * u[0].abs()) + normal(l.command_sd_m) / l.step_s;
-        let (a, b) = (ctl.filter_a, ctl.filter_b);
+        // The filter's own rows and columns of the plant's `A` and `B`.
+        let filter = [EQUILIBRIUM, STAGE, COMMAND];
         let old = self.limb;
         self.held = old[0];
-        for (r, row) in a.iter().enumerate() {
-            self.limb[r] = row.iter().zip(old).map(|(a, x)| a * x).sum::<f64>() + b[r] * command;
+        for (next, &i) in self.limb.iter_mut().zip(&filter) {
+            *next = filter
+                .iter()
+                .zip(old)
+                .map(|(&j, x)| ctl.plant.a[(i, j)] * x)
+                .sum::<f64>()
+                + ctl.plant.b[(i, 0)] * command;
         }
     }
 
