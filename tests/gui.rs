@@ -1327,7 +1327,9 @@ fn the_desktops_file_chooser_opens_a_protocol_in_the_builder_issue_37() {
     }
     if !(up && chooser) {
         finish(&mut gui, &mut x);
-        panic!("window up: {up}, chooser up: {chooser}");
+        // The window's own account, which goes with the temporary folder.
+        let err = std::fs::read_to_string(dir.path().join("gui.err")).unwrap_or_default();
+        panic!("window up: {up}, chooser up: {chooser}; the window's stderr:\n{err}");
     }
     // The chooser selects the file once it has read its folder; a Return
     // before that selects nothing and leaves it open. Return is pressed
